@@ -1,0 +1,143 @@
+"""Reference returns: scripted full-information oracles and random policies on every task.
+
+These are the denominators of every later result (SPEC §5: a method's return is reported as a
+fraction of the oracle's). For each task, ``--episodes`` (default 1,000) episodes per policy, one
+per parallel game, seeded; the mean, standard deviation and normal-approximation 95% confidence
+interval (1.96 std / sqrt(n)) of the episode return, the mean episode length and how the
+episodes ended. The team return is the mean of the agents' returns (Blind Soccer's reward is
+shared, so it equals each agent's).
+
+Run from the repository root::
+
+    python -m benchmarks.oracles                  # writes benchmarks/results/oracles.{json,md}
+    python -m benchmarks.oracles --episodes 100   # quicker, not written unless --write
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+if __package__ in (None, ""):
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+
+from benchmarks._common import write_results
+from envs import blind_soccer_v0, guess_my_number_v0
+from envs.oracles import (
+    blind_dash_forward,
+    blind_soccer_oracle,
+    empty_goal_oracle,
+    evaluate,
+    guess_my_number_oracle,
+    move_to_ball_oracle,
+    random_policy,
+)
+from envs.tasks.batched import BatchedTask
+from envs.tasks.single_agent import MoveToBallTask, ScoreEmptyGoalTask
+
+DEFAULT_EPISODES = 1000
+SEED = 0
+
+
+def _random(seed: int) -> Callable[[BatchedTask], np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return lambda task: random_policy(task, rng)
+
+
+TASKS: dict[str, tuple[Callable[[int], BatchedTask], dict[str, Callable[[BatchedTask], np.ndarray]]]] = {
+    "blind_soccer": (
+        lambda n: blind_soccer_v0.batched_env(n_games=n),
+        {"oracle": blind_soccer_oracle, "random": _random(1), "blind_dash_forward": blind_dash_forward},
+    ),
+    "guess_my_number": (
+        lambda n: guess_my_number_v0.batched_env(n_games=n),
+        {"oracle": guess_my_number_oracle, "random": _random(2)},
+    ),
+    "hfo_move_to_ball": (
+        lambda n: MoveToBallTask(n_games=n),
+        {"oracle": move_to_ball_oracle, "random": _random(3)},
+    ),
+    "hfo_score_empty_goal": (
+        lambda n: ScoreEmptyGoalTask(n_games=n),
+        {"oracle": empty_goal_oracle, "random": _random(4)},
+    ),
+}
+
+NOTES = """
+Notes:
+
+- Blind Soccer: the oracle steers the blind agent with the true ball position (turn when the
+  ball is more than 10 degrees off, else dash at full power); it needs no messages, so it bounds
+  what any protocol can reach. The paper reports a maximum of about 0.6. `blind_dash_forward`
+  is a communication-free baseline (the blind agent dashes straight ahead, as the paper's GSN
+  policy did with its messages disabled); standing still would score 0. A success ends the
+  episode with the referee still `IN_GAME` (the blind agent can kick the ball).
+- Guess My Number: the analytic maximum is 99 x 0.1 = 9.9 (the first step hears the initial
+  message 0); the oracle sends each teammate its hidden number and reaches it.
+- HFO single-agent tasks: move to ball ends `IN_GAME` when the player can kick the ball; the
+  empty-goal oracle runs to the ball and kicks it at full power towards the goal centre.
+"""
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--episodes", type=int, default=DEFAULT_EPISODES, help="episodes per task and policy")
+    parser.add_argument("--seed", type=int, default=SEED, help="seed of the tasks")
+    parser.add_argument(
+        "--write", action="store_true", help="write results even with a non-default --episodes"
+    )
+    args = parser.parse_args(argv)
+
+    results: dict[str, Any] = {
+        "episodes": args.episodes,
+        "seed": args.seed,
+        "ci": "normal, 1.96 std / sqrt(n)",
+    }
+    lines = [
+        f"Episode returns over {args.episodes:,} episodes per task and policy (seed {args.seed}); "
+        "95% CI = 1.96 std / sqrt(n).",
+        "",
+        "| task | policy | team return | std | 95% CI | per agent | mean length | outcomes |",
+        "|---|---|---:|---:|---:|---|---:|---|",
+    ]
+    for task_name, (make, policies) in TASKS.items():
+        results[task_name] = {}
+        for policy_name, policy in policies.items():
+            start = time.perf_counter()
+            task = make(min(args.episodes, 1000))
+            r = evaluate(task, policy, args.episodes, seed=args.seed)
+            elapsed = time.perf_counter() - start
+            team = r["team_return"]
+            per_agent = ", ".join(f"{a}: {r['return'][a]['mean']:.4f}" for a in r["agents"])
+            outcomes = ", ".join(f"{k} {v}" for k, v in r["outcomes"].items() if v)
+            results[task_name][policy_name] = {
+                "team_return": team,
+                "return": r["return"],
+                "length": r["length"],
+                "outcomes": r["outcomes"],
+                "terminated": r["terminated"],
+                "n_episodes": r["n_episodes"],
+                "seconds": elapsed,
+            }
+            lines.append(
+                f"| {task_name} | {policy_name} | {team['mean']:.4f} | {team['std']:.4f} | "
+                f"± {team['ci95']:.4f} | {per_agent} | {r['length']['mean']:.1f} | {outcomes} |"
+            )
+            print(lines[-1], flush=True)
+    table = "\n".join(lines) + "\n" + NOTES
+    print(NOTES)
+    if args.episodes == DEFAULT_EPISODES or args.write:
+        paths = write_results("oracles", results, table, title="Oracle and random reference returns")
+        print("wrote", *paths)
+
+
+if __name__ == "__main__":
+    main()

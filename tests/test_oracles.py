@@ -1,0 +1,85 @@
+"""Tests of the scripted policies and the evaluation loop (behaviour, not benchmark numbers)."""
+
+import numpy as np
+import pytest
+
+from envs import blind_soccer_v0, guess_my_number_v0
+from envs.oracles import (
+    blind_dash_forward,
+    blind_soccer_oracle,
+    empty_goal_oracle,
+    evaluate,
+    guess_my_number_oracle,
+    move_to_ball_oracle,
+    random_policy,
+)
+from envs.soccer import referee
+from envs.tasks.single_agent import MoveToBallEnv, MoveToBallTask, ScoreEmptyGoalTask
+
+N_EPISODES = 50
+
+
+def _random(seed=0):
+    rng = np.random.default_rng(seed)
+    return lambda task: random_policy(task, rng)
+
+
+def test_blind_soccer_oracle_far_above_random():
+    task = blind_soccer_v0.batched_env(n_games=N_EPISODES)
+    oracle = evaluate(task, blind_soccer_oracle, N_EPISODES, seed=0)
+    random = evaluate(task, _random(), N_EPISODES, seed=0)
+    dash = evaluate(task, blind_dash_forward, N_EPISODES, seed=0)
+    assert oracle["n_episodes"] == random["n_episodes"] == N_EPISODES
+    assert oracle["team_return"]["mean"] > random["team_return"]["mean"] + 0.2
+    assert oracle["team_return"]["mean"] > dash["team_return"]["mean"] + 0.2
+    # the oracle reaches the ball in most episodes, well within the time limit
+    assert oracle["outcomes"]["IN_GAME"] >= 0.8 * N_EPISODES
+    assert oracle["length"]["mean"] < random["length"]["mean"]
+    # the shared reward: both agents' returns are identical
+    np.testing.assert_allclose(oracle["returns"][:, 0], oracle["returns"][:, 1])
+
+
+def test_guess_my_number_oracle_reaches_the_analytic_maximum():
+    task = guess_my_number_v0.batched_env(n_games=10)
+    oracle = evaluate(task, guess_my_number_oracle, 20, seed=0)
+    random = evaluate(task, _random(), 20, seed=0)
+    # 99 rewarded steps of 0.1 (the first step hears the initial message 0)
+    assert oracle["team_return"]["mean"] == pytest.approx(9.9, abs=1e-5)
+    assert random["team_return"]["mean"] < 0.5 * oracle["team_return"]["mean"]
+    np.testing.assert_array_equal(oracle["lengths"], 100)
+
+
+def test_single_agent_oracles_far_above_random():
+    task = MoveToBallTask(n_games=N_EPISODES)
+    oracle = evaluate(task, move_to_ball_oracle, N_EPISODES, seed=0)
+    random = evaluate(task, _random(), N_EPISODES, seed=0)
+    assert oracle["team_return"]["mean"] > random["team_return"]["mean"] + 0.5
+    assert oracle["outcomes"]["IN_GAME"] >= 0.8 * N_EPISODES  # became kickable
+
+    task = ScoreEmptyGoalTask(n_games=N_EPISODES)
+    oracle = evaluate(task, empty_goal_oracle, N_EPISODES, seed=0)
+    random = evaluate(task, _random(), N_EPISODES, seed=0)
+    assert oracle["outcomes"]["GOAL"] >= 0.5 * N_EPISODES
+    assert random["outcomes"]["GOAL"] < oracle["outcomes"]["GOAL"]
+    assert oracle["team_return"]["mean"] > random["team_return"]["mean"] + 2.0
+
+
+def test_evaluate_counts_exactly_and_is_deterministic():
+    task = blind_soccer_v0.batched_env(n_games=7)
+    first = evaluate(task, blind_soccer_oracle, 20, seed=3)
+    again = evaluate(task, blind_soccer_oracle, 20, seed=3)
+    assert first["returns"].shape == (20, 2) and first["lengths"].shape == (20,)
+    assert sum(first["outcomes"].values()) == 20
+    np.testing.assert_array_equal(first["returns"], again["returns"])
+    summary = first["return"]["blind"]
+    assert summary["ci95"] == pytest.approx(1.96 * summary["std"] / np.sqrt(20))
+
+
+def test_evaluate_accepts_environment_shells():
+    env = blind_soccer_v0.parallel_env()
+    result = evaluate(env, blind_soccer_oracle, 3, seed=0)
+    assert result["n_episodes"] == 3 and result["agents"] == ["sighted", "blind"]
+    result = evaluate(MoveToBallEnv(), move_to_ball_oracle, 3, seed=0)
+    assert result["agents"] == ["player"]
+    assert set(result["outcomes"]) == {"IN_GAME", "GOAL", "OUT_OF_BOUNDS", "OUT_OF_TIME"}
+    assert referee.IN_GAME == 0
