@@ -1,0 +1,103 @@
+"""Callbacks: periodic team evaluation with a learning-curve record and an optional target."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+from stable_baselines3.common.callbacks import BaseCallback
+
+from sb3_comm.evaluation import evaluate_team
+
+__all__ = ["TeamEvalCallback"]
+
+
+class TeamEvalCallback(BaseCallback):
+    """Evaluate the team every ``eval_freq`` environment steps on ``n_episodes`` parallel games.
+
+    Logs ``eval/mean_return`` (and ``eval/return_<agent>``) to the model's logger, keeps the
+    learning curve in :attr:`history`, and records when the mean return first reached
+    ``target_return`` (wall-clock seconds and steps). With ``stop_at_target`` training stops there.
+
+    :param env_id: registered id of the task to evaluate on.
+    :param eval_freq: evaluate every this many environment steps (``model.num_timesteps``).
+    :param n_episodes: evaluation episodes (one per parallel game), deterministic policy.
+    :param target_return: the return that counts as solved (e.g. 0.9 × the oracle's), or None.
+    :param stop_at_target: stop training once the target is reached.
+    :param seed: seed of the evaluation games (the same games at every evaluation).
+    :param env_kwargs: task options.
+    :param log_path: if given, the learning curve is rewritten to this JSON file after every
+        evaluation (so a run that dies keeps it).
+    """
+
+    def __init__(
+        self,
+        env_id: str,
+        eval_freq: int = 10_000,
+        n_episodes: int = 100,
+        target_return: float | None = None,
+        stop_at_target: bool = False,
+        seed: int = 12345,
+        env_kwargs: dict[str, Any] | None = None,
+        log_path: str | Path | None = None,
+        verbose: int = 0,
+    ) -> None:
+        super().__init__(verbose)
+        self.env_id = env_id
+        self.eval_freq = eval_freq
+        self.n_episodes = n_episodes
+        self.target_return = target_return
+        self.stop_at_target = stop_at_target
+        self.seed = seed
+        self.env_kwargs = env_kwargs
+        self.log_path = Path(log_path) if log_path is not None else None
+        self.history: list[dict[str, float]] = []
+        self.time_to_target: float | None = None
+        self.steps_to_target: int | None = None
+        self._next_eval = 0
+        self._start = 0.0
+        self._eval_seconds = 0.0
+
+    def _on_training_start(self) -> None:
+        self._start = time.perf_counter()
+        self._next_eval = self.num_timesteps + self.eval_freq
+
+    def evaluate(self) -> dict[str, float]:
+        """Run one evaluation now, log it and append it to :attr:`history`."""
+        began = time.perf_counter()
+        result = evaluate_team(
+            self.model, self.env_id, n_episodes=self.n_episodes, seed=self.seed, env_kwargs=self.env_kwargs
+        )
+        self._eval_seconds += time.perf_counter() - began
+        summary = result.summary()
+        # Training time excludes the evaluations themselves.
+        elapsed = time.perf_counter() - self._start - self._eval_seconds
+        point = {"timesteps": self.num_timesteps, "seconds": elapsed, **summary}
+        self.history.append(point)
+        self.logger.record("eval/mean_return", summary["mean_return"])
+        names = getattr(self.model, "comm_layout", None)
+        for i, value in enumerate(summary["agent_mean_returns"]):
+            name = names.agent_names[i] if names is not None else str(i)
+            self.logger.record(f"eval/return_{name}", value)
+        if self.verbose:
+            print(f"[eval] steps={self.num_timesteps} mean_return={summary['mean_return']:.4f}")
+        if (
+            self.target_return is not None
+            and self.time_to_target is None
+            and summary["mean_return"] >= self.target_return
+        ):
+            self.time_to_target = elapsed
+            self.steps_to_target = self.num_timesteps
+        if self.log_path is not None:
+            self.log_path.parent.mkdir(parents=True, exist_ok=True)
+            self.log_path.write_text(json.dumps(self.history, indent=2))
+        return point
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps < self._next_eval:
+            return True
+        self._next_eval += self.eval_freq
+        self.evaluate()
+        return not (self.stop_at_target and self.time_to_target is not None)

@@ -1,0 +1,186 @@
+"""Command line: ``sb3-comm train`` and ``sb3-comm evaluate``.
+
+    sb3-comm train --env BlindSoccer-v0 --method GSN
+    sb3-comm evaluate runs/BlindSoccer-v0/GSN_seed0/model.zip --ablation zero
+
+``train`` reads the packaged hyperparameters of the method (``zoo_configs/<method>.yml``), trains
+with a progress bar, evaluates periodically, and writes TensorBoard logs, the learning curve and
+the model into a fresh run folder (an existing folder is never overwritten).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+__all__ = ["main", "parse_overrides"]
+
+
+def parse_overrides(items: list[str] | None) -> dict[str, Any]:
+    """``key=value`` pairs (values parsed as YAML: numbers, lists, mappings) to a dict."""
+    result: dict[str, Any] = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise ValueError(f"Hyperparameter override {item!r} must look like key=value")
+        result[key.strip()] = yaml.safe_load(value)
+    return result
+
+
+def _fresh_dir(base: Path) -> Path:
+    candidate, k = base, 1
+    while candidate.exists():
+        candidate = base.with_name(f"{base.name}_{k}")
+        k += 1
+    candidate.mkdir(parents=True)
+    return candidate
+
+
+def _train(args: argparse.Namespace) -> int:
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+
+    from sb3_comm import CommDDPG, make_comm_vec_env
+    from sb3_comm.callbacks import TeamEvalCallback
+    from sb3_comm.config import accepted_keys, load_hyperparams
+
+    settings = load_hyperparams(args.method, args.env, args.conf)
+    overrides = parse_overrides(args.params)
+    unknown = sorted(set(overrides) - set(accepted_keys()))
+    if unknown:
+        raise ValueError(f"Unknown hyperparameter(s) {unknown}; accepted keys: {accepted_keys()}")
+    settings.update(overrides)
+    n_envs = int(args.n_envs or settings.pop("n_envs"))
+    settings.pop("n_envs", None)
+    timesteps = int(args.timesteps or settings.pop("n_timesteps"))
+    settings.pop("n_timesteps", None)
+    method = settings.pop("policy")
+
+    run_dir = _fresh_dir(Path(args.log_folder) / args.env / f"{method}_seed{args.seed}")
+    (run_dir / "config.yml").write_text(
+        yaml.safe_dump({args.env: {"policy": method, "n_envs": n_envs, "n_timesteps": timesteps, **settings}})
+    )
+    env = make_comm_vec_env(args.env, n_envs=n_envs, seed=args.seed)
+    model = CommDDPG(
+        method,
+        env,
+        tensorboard_log=str(run_dir / "tb"),
+        seed=args.seed,
+        device=args.device,
+        verbose=args.verbose,
+        **settings,
+    )
+    evaluator = TeamEvalCallback(
+        args.env,
+        eval_freq=args.eval_freq,
+        n_episodes=args.eval_episodes,
+        log_path=run_dir / "evaluations.json",
+        verbose=1,
+    )
+    checkpoints = CheckpointCallback(
+        max(args.save_freq // n_envs, 1), str(run_dir / "checkpoints"), name_prefix="model"
+    )
+    print(
+        f"Training CommDDPG {method} on {args.env}: {timesteps} steps, "
+        f"{n_envs} parallel games, seed {args.seed}"
+    )
+    print(f"Run folder: {run_dir}")
+    began = time.perf_counter()
+    try:
+        model.learn(
+            timesteps,
+            callback=CallbackList([evaluator, checkpoints]),
+            progress_bar=not args.no_progress_bar,
+            log_interval=100 * n_envs,
+        )
+    finally:
+        model.save(run_dir / "model.zip")
+    final = evaluator.evaluate()
+    print(
+        f"Done in {time.perf_counter() - began:.0f} s. Final evaluation ({args.eval_episodes} episodes): "
+        f"mean return {final['mean_return']:.4f}"
+    )
+    print(f"Model:       {run_dir / 'model.zip'}")
+    print(f"Curve:       {run_dir / 'evaluations.json'}")
+    print(f"TensorBoard: tensorboard --logdir {run_dir / 'tb'}")
+    return 0
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from sb3_comm import CommDDPG
+    from sb3_comm.evaluation import evaluate_team
+
+    model = CommDDPG.load(args.model, device=args.device)
+    env_id = args.env or _env_of(Path(args.model))
+    result = evaluate_team(model, env_id, n_episodes=args.episodes, seed=args.seed, ablation=args.ablation)
+    print(
+        json.dumps(
+            {"env": env_id, "method": model.method, "ablation": args.ablation, **result.summary()}, indent=2
+        )
+    )
+    return 0
+
+
+def _env_of(model_path: Path) -> str:
+    config = model_path.parent / "config.yml"
+    if config.exists():
+        return next(iter(yaml.safe_load(config.read_text())))
+    raise ValueError(f"Cannot tell the environment of {model_path}: pass --env")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``sb3-comm`` argument parser."""
+    from sb3_comm.comm_ddpg import METHODS
+    from sb3_comm.evaluation import ABLATIONS
+    from sb3_comm.registration import TASK_IDS
+
+    parser = argparse.ArgumentParser(prog="sb3-comm", description="Agents that learn to communicate (SB3).")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    train = sub.add_parser("train", help="train a method on a task with the packaged configuration")
+    train.add_argument("--env", required=True, choices=sorted(TASK_IDS), help="task id")
+    train.add_argument(
+        "--method", required=True, type=str.upper, choices=METHODS, help="communication method"
+    )
+    train.add_argument("--timesteps", "-n", type=int, default=None, help="override n_timesteps")
+    train.add_argument("--n-envs", type=int, default=None, help="override n_envs (parallel games)")
+    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--conf", "-conf", default=None, help="hyperparameter YAML (default: packaged)")
+    train.add_argument("--params", "-params", nargs="*", help="overrides key=value")
+    train.add_argument("--log-folder", "-f", default="runs", help="where run folders go")
+    train.add_argument("--eval-freq", type=int, default=25_000, help="evaluate every N env steps")
+    train.add_argument("--eval-episodes", type=int, default=100)
+    train.add_argument("--save-freq", type=int, default=100_000, help="checkpoint every N env steps")
+    train.add_argument("--device", default="cpu")
+    train.add_argument("--no-progress-bar", action="store_true")
+    train.add_argument("--verbose", type=int, default=0)
+    train.set_defaults(func=_train)
+
+    evaluate = sub.add_parser("evaluate", help="evaluate a saved model, optionally with ablated messages")
+    evaluate.add_argument("model", help="path of a saved model.zip")
+    evaluate.add_argument("--env", default=None, help="task id (default: from the run's config.yml)")
+    evaluate.add_argument("--episodes", type=int, default=100)
+    evaluate.add_argument("--seed", type=int, default=12345)
+    evaluate.add_argument("--ablation", choices=ABLATIONS, default="none")
+    evaluate.add_argument("--device", default="cpu")
+    evaluate.set_defaults(func=_evaluate)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``sb3-comm``."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except (ValueError, FileNotFoundError) as error:
+        print(f"sb3-comm: error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

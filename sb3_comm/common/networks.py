@@ -1,0 +1,71 @@
+"""Small network pieces shared by the policies: per-agent MLPs and inverting gradients."""
+
+from __future__ import annotations
+
+import torch as th
+from torch import nn
+
+__all__ = ["AgentMLPs", "inverting_gradients", "mlp"]
+
+
+def mlp(in_dim: int, out_dim: int, net_arch: list[int], activation_fn: type[nn.Module]) -> nn.Sequential:
+    """A plain multi-layer perceptron ``in_dim -> net_arch... -> out_dim`` (linear output)."""
+    layers: list[nn.Module] = []
+    last = in_dim
+    for width in net_arch:
+        layers += [nn.Linear(last, width), activation_fn()]
+        last = width
+    layers.append(nn.Linear(last, out_dim))
+    return nn.Sequential(*layers)
+
+
+class AgentMLPs(nn.Module):
+    """One MLP applied to every agent row, or one MLP per agent (``share_parameters=False``).
+
+    Maps ``(batch, n_agents, in_dim)`` to ``(batch, n_agents, out_dim)``.
+
+    :param n_agents: number of agent rows.
+    :param in_dim: input size of one row.
+    :param out_dim: output size of one row.
+    :param net_arch: hidden layer widths.
+    :param activation_fn: hidden activation class.
+    :param share_parameters: one network for all agents (the role one-hot in the observation
+        tells them apart) or one per agent, as in the paper.
+    """
+
+    def __init__(
+        self,
+        n_agents: int,
+        in_dim: int,
+        out_dim: int,
+        net_arch: list[int],
+        activation_fn: type[nn.Module],
+        share_parameters: bool = True,
+    ) -> None:
+        super().__init__()
+        self.n_agents = n_agents
+        self.share_parameters = share_parameters
+        count = 1 if share_parameters else n_agents
+        self.nets = nn.ModuleList([mlp(in_dim, out_dim, net_arch, activation_fn) for _ in range(count)])
+
+    def forward(self, x: th.Tensor) -> th.Tensor:
+        """Apply the network(s) row by row."""
+        if self.share_parameters:
+            batch, n_agents, width = x.shape
+            return self.nets[0](x.reshape(batch * n_agents, width)).reshape(batch, n_agents, -1)
+        return th.stack([net(x[:, i]) for i, net in enumerate(self.nets)], dim=1)
+
+
+def inverting_gradients(grad: th.Tensor, value: th.Tensor, low: float = -1.0, high: float = 1.0) -> th.Tensor:
+    """Inverting gradients for a bounded output (Hausknecht & Stone, ICLR 2016, eq. 11).
+
+    With ``grad`` = dQ/dp the ascent direction for an output ``p`` in ``[low, high]``::
+
+        grad * (high - p) / (high - low)   where grad > 0
+        grad * (p - low) / (high - low)    where grad < 0
+
+    The step shrinks as ``p`` nears the bound it is pushed towards, and reverses once ``p`` is
+    past it, so outputs stay in range without a saturating ``tanh``.
+    """
+    width = high - low
+    return th.where(grad > 0, grad * (high - value) / width, grad * (value - low) / width)
