@@ -19,6 +19,8 @@ from typing import Any
 
 import yaml
 
+from sb3_comm.common.hyperparams import coerce_value, to_yaml_value
+
 __all__ = ["main", "parse_overrides"]
 
 
@@ -29,7 +31,7 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
         key, sep, value = item.partition("=")
         if not sep or not key:
             raise ValueError(f"Hyperparameter override {item!r} must look like key=value")
-        result[key.strip()] = yaml.safe_load(value)
+        result[key.strip()] = coerce_value(key.strip(), yaml.safe_load(value))
     return result
 
 
@@ -63,7 +65,16 @@ def _train(args: argparse.Namespace) -> int:
 
     run_dir = _fresh_dir(Path(args.log_folder) / args.env / f"{method}_seed{args.seed}")
     (run_dir / "config.yml").write_text(
-        yaml.safe_dump({args.env: {"policy": method, "n_envs": n_envs, "n_timesteps": timesteps, **settings}})
+        yaml.safe_dump(
+            {
+                args.env: {
+                    "policy": method,
+                    "n_envs": n_envs,
+                    "n_timesteps": timesteps,
+                    **{key: to_yaml_value(value) for key, value in settings.items()},
+                }
+            }
+        )
     )
     env = make_comm_vec_env(args.env, n_envs=n_envs, seed=args.seed)
     model = CommDDPG(

@@ -13,6 +13,7 @@ from typing import Any
 
 import yaml
 
+from sb3_comm.common.hyperparams import coerce_value
 from sb3_comm.comm_ddpg import METHODS, CommDDPG
 
 __all__ = ["CONFIG_DIR", "ZOO_KEYS", "accepted_keys", "config_path", "load_hyperparams"]
@@ -90,7 +91,8 @@ def load_hyperparams(method: str, env_id: str, path: str | Path | None = None) -
     unknown = sorted(set(entry) - set(accepted))
     if unknown:
         raise ValueError(f"{file}: unknown key(s) {unknown} for {env_id!r}; accepted keys: {accepted}")
-    settings = dict(entry)
+    # YAML 1.1 reads 1e-3 (no dot) as a string: accept numbers written that way.
+    settings = {key: coerce_value(key, value) for key, value in entry.items()}
     policy = str(settings.get("policy", method)).upper()
     if policy != method:
         raise ValueError(f"{file}: {env_id!r} is configured for method {policy}, but {method} was requested")

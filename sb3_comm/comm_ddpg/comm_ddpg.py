@@ -52,8 +52,9 @@ class CommDDPG(TD3):
         ``"GuessMyNumber-v0"``), a :class:`~sb3_comm.wrappers.TwoAgentEnv`, or a VecEnv of them
         (:func:`sb3_comm.make_comm_vec_env` steps many games at once).
     :param learning_rate: critic learning rate (or schedule).
-    :param actor_learning_rate: actor learning rate (reference code: 1e-5).
-    :param gsn_learning_rate: GSN learning rate (paper: 1e-6).
+    :param actor_learning_rate: actor learning rate or schedule (reference code: 1e-5).
+    :param gsn_learning_rate: GSN learning rate or schedule of the remaining progress, e.g.
+        ``LinearSchedule(1e-3, 0, 1)`` (paper: a constant 1e-6).
     :param buffer_size: replay size in joint transitions.
     :param learning_starts: transitions collected with full exploration before learning.
     :param batch_size: joint transitions per update.
@@ -101,8 +102,8 @@ class CommDDPG(TD3):
         policy: str | type[CommPolicy],
         env: GymEnv | str,
         learning_rate: float | Schedule = 1e-3,
-        actor_learning_rate: float = 1e-4,
-        gsn_learning_rate: float = 1e-4,
+        actor_learning_rate: float | Schedule = 1e-4,
+        gsn_learning_rate: float | Schedule = 1e-3,
         buffer_size: int = 200_000,
         learning_starts: int = 1_000,
         batch_size: int = 64,
@@ -236,14 +237,15 @@ class CommDDPG(TD3):
         }
         super()._setup_model()
         self.comm_layout = layout
-        self.actor.optimizer.param_groups[0]["lr"] = self.actor_learning_rate
+        self.actor_lr_schedule = FloatSchedule(self.actor_learning_rate)
+        self.gsn_lr_schedule = FloatSchedule(self.gsn_learning_rate)
+        self.actor.optimizer.param_groups[0]["lr"] = self.actor_lr_schedule(1.0)
         self.gsn = self.policy.gsn
         if self.gsn is not None:
-            self.gsn.optimizer.param_groups[0]["lr"] = self.gsn_learning_rate
+            self.gsn.optimizer.param_groups[0]["lr"] = self.gsn_lr_schedule(1.0)
         self.exploration_schedule = LinearSchedule(
             self.exploration_initial_eps, self.exploration_final_eps, self.exploration_fraction
         )
-        self.actor_lr_schedule = FloatSchedule(self.actor_learning_rate)
         # Which entries of an action row exploration may randomise: the environment action, and
         # the message only where it is an action (RIAL, TCG). GSN and NONE messages are not actions.
         explorable = np.ones(layout.action_dim, dtype=bool)
@@ -429,6 +431,10 @@ class CommDDPG(TD3):
         if self.gsn is None or n_updates <= 0 or self.replay_buffer is None:
             return
         self.gsn.train(True)
+        lr = self.gsn_lr_schedule(self._current_progress_remaining)
+        for group in self.gsn.optimizer.param_groups:
+            group["lr"] = lr
+        self.logger.record("gsn/learning_rate", lr)
         losses = []
         for _ in range(n_updates):
             data = self.replay_buffer.sample(self.batch_size)

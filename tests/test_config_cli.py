@@ -1,0 +1,119 @@
+"""Hyperparameter files and the ``sb3-comm`` command line."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from sb3_comm.cli import main, parse_overrides
+from sb3_comm.config import CONFIG_DIR, load_hyperparams
+
+
+@pytest.mark.parametrize("method", ["NONE", "RIAL", "TCG", "GSN"])
+@pytest.mark.parametrize("env_id", ["BlindSoccer-v0", "GuessMyNumber-v0"])
+def test_packaged_configs_load(method: str, env_id: str) -> None:
+    settings = load_hyperparams(method, env_id)
+    assert settings["policy"] == method
+    assert settings["n_envs"] >= 1 and settings["n_timesteps"] > 0
+    assert isinstance(settings["learning_rate"], float)
+
+
+def test_config_errors_name_the_problem(tmp_path) -> None:
+    bad_key = tmp_path / "bad.yml"
+    bad_key.write_text("BlindSoccer-v0:\n  policy: GSN\n  learning_rat: 0.001\n")
+    with pytest.raises(ValueError, match=r"unknown key\(s\) \['learning_rat'\].*accepted keys"):
+        load_hyperparams("GSN", "BlindSoccer-v0", bad_key)
+    with pytest.raises(ValueError, match=r"no entry for 'GuessMyNumber-v0'.*BlindSoccer-v0"):
+        load_hyperparams("GSN", "GuessMyNumber-v0", bad_key)
+    other = tmp_path / "other.yml"
+    other.write_text("BlindSoccer-v0:\n  policy: TCG\n")
+    with pytest.raises(ValueError, match="configured for method TCG"):
+        load_hyperparams("GSN", "BlindSoccer-v0", other)
+    broken = tmp_path / "broken.yml"
+    broken.write_text("BlindSoccer-v0: [unclosed\n")
+    with pytest.raises(ValueError, match="not valid YAML"):
+        load_hyperparams("GSN", "BlindSoccer-v0", broken)
+    with pytest.raises(ValueError, match="Unknown communication method 'DIAL'"):
+        load_hyperparams("DIAL", "BlindSoccer-v0")
+
+
+def test_numbers_without_a_dot_are_numbers(tmp_path) -> None:
+    path = tmp_path / "numbers.yml"
+    path.write_text("BlindSoccer-v0:\n  policy: GSN\n  gsn_learning_rate: 1e-6\n")
+    assert load_hyperparams("GSN", "BlindSoccer-v0", path)["gsn_learning_rate"] == pytest.approx(1e-6)
+    assert parse_overrides(["gsn_learning_rate=1e-6", "batch_size=32"]) == {
+        "gsn_learning_rate": 1e-6,
+        "batch_size": 32,
+    }
+    with pytest.raises(ValueError, match="key=value"):
+        parse_overrides(["batch_size"])
+
+
+def test_config_dir_is_the_repository_folder() -> None:
+    assert (CONFIG_DIR / "gsn.yml").is_file()
+
+
+def test_cli_train_then_evaluate(tmp_path, capsys) -> None:
+    args = [
+        "train", "--env", "GuessMyNumber-v0", "--method", "gsn", "--timesteps", "240", "--n-envs", "2",
+        "-f", str(tmp_path), "--eval-freq", "200", "--eval-episodes", "2", "--no-progress-bar",
+        "-params", "learning_starts=100", "batch_size=16", "policy_kwargs={net_arch: [16]}",
+    ]  # fmt: skip
+    assert main(args) == 0
+    run = tmp_path / "GuessMyNumber-v0" / "GSN_seed0"
+    assert (run / "model.zip").is_file() and (run / "config.yml").is_file()
+    assert list((run / "tb").rglob("events.out.tfevents.*"))
+    curve = json.loads((run / "evaluations.json").read_text())
+    assert len(curve) == 2 and all("mean_return" in point for point in curve)
+    out = capsys.readouterr().out
+    assert "tensorboard --logdir" in out and str(run) in out
+
+    # A second run never overwrites the first.
+    assert main(args) == 0
+    assert (tmp_path / "GuessMyNumber-v0" / "GSN_seed0_1" / "model.zip").is_file()
+    capsys.readouterr()
+
+    assert main(["evaluate", str(run / "model.zip"), "--episodes", "2", "--ablation", "zero"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["env"] == "GuessMyNumber-v0" and report["method"] == "GSN" and report["n_episodes"] == 2
+
+
+def test_cli_rejects_unknown_override_before_training(tmp_path, capsys) -> None:
+    code = main(
+        ["train", "--env", "BlindSoccer-v0", "--method", "GSN", "-f", str(tmp_path), "-params", "lr=3"]
+    )
+    assert code == 2
+    assert "Unknown hyperparameter(s) ['lr']" in capsys.readouterr().err
+    assert not (tmp_path / "BlindSoccer-v0").exists()
+
+
+def test_linear_schedules_for_learning_rates() -> None:
+    from stable_baselines3.common.utils import LinearSchedule
+
+    from sb3_comm.common.hyperparams import coerce_value, to_yaml_value
+
+    schedule = coerce_value("gsn_learning_rate", "lin_1e-3")
+    assert isinstance(schedule, LinearSchedule)
+    assert schedule(1.0) == pytest.approx(1e-3) and schedule(0.5) == pytest.approx(5e-4)
+    assert to_yaml_value(schedule) == "lin_0.001"
+    assert coerce_value("gsn_learning_rate", to_yaml_value(schedule))(0.25) == pytest.approx(2.5e-4)
+    assert coerce_value("exploration", "lin_1e-3") == "lin_1e-3"  # only learning rates are schedules
+    with pytest.raises(ValueError, match="linear schedule"):
+        coerce_value("learning_rate", "lin_fast")
+
+
+def test_gsn_learning_rate_schedule_is_applied() -> None:
+    from stable_baselines3.common.utils import LinearSchedule
+
+    from sb3_comm import CommDDPG, make_comm_vec_env
+
+    model = CommDDPG(
+        "GSN", make_comm_vec_env("GuessMyNumber-v0", n_envs=2), gsn_learning_rate=LinearSchedule(1e-3, 0.0, 1.0),
+        learning_starts=50, batch_size=8, policy_kwargs={"net_arch": [8]}, device="cpu",
+    )  # fmt: skip
+    seen: list[float] = []
+    model.learn(200, callback=lambda _l, _g: seen.append(model.gsn.optimizer.param_groups[0]["lr"]) or True)
+    trained = [lr for lr in seen if lr < 1e-3]  # after the first GSN updates
+    assert trained and all(a >= b for a, b in zip(trained, trained[1:], strict=False))
+    assert trained[-1] == pytest.approx(1e-3 * (1 - 198 / 200), abs=2e-5)
