@@ -13,8 +13,8 @@ from typing import Any
 
 import yaml
 
-from sb3_comm.common.hyperparams import coerce_value
 from sb3_comm.comm_ddpg import METHODS, CommDDPG
+from sb3_comm.common.hyperparams import coerce_value
 
 __all__ = ["CONFIG_DIR", "ZOO_KEYS", "accepted_keys", "config_path", "load_hyperparams"]
 

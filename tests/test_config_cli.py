@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 
 import pytest
@@ -108,12 +109,14 @@ def test_gsn_learning_rate_schedule_is_applied() -> None:
 
     from sb3_comm import CommDDPG, make_comm_vec_env
 
+    env = make_comm_vec_env("GuessMyNumber-v0", n_envs=2)
     model = CommDDPG(
-        "GSN", make_comm_vec_env("GuessMyNumber-v0", n_envs=2), gsn_learning_rate=LinearSchedule(1e-3, 0.0, 1.0),
+        "GSN", env, gsn_learning_rate=LinearSchedule(1e-3, 0.0, 1.0),
         learning_starts=50, batch_size=8, policy_kwargs={"net_arch": [8]}, device="cpu",
     )  # fmt: skip
     seen: list[float] = []
-    model.learn(200, callback=lambda _l, _g: seen.append(model.gsn.optimizer.param_groups[0]["lr"]) or True)
+    optimizer = model.gsn.optimizer
+    model.learn(200, callback=lambda _l, _g: seen.append(optimizer.param_groups[0]["lr"]) or True)
     trained = [lr for lr in seen if lr < 1e-3]  # after the first GSN updates
-    assert trained and all(a >= b for a, b in zip(trained, trained[1:], strict=False))
+    assert trained and all(a >= b for a, b in itertools.pairwise(trained))
     assert trained[-1] == pytest.approx(1e-3 * (1 - 198 / 200), abs=2e-5)
