@@ -17,7 +17,8 @@ def test_packaged_configs_load(method: str, env_id: str) -> None:
     settings = load_hyperparams(method, env_id)
     assert settings["policy"] == method
     assert settings["n_envs"] >= 1 and settings["n_timesteps"] > 0
-    assert isinstance(settings["learning_rate"], float)
+    assert callable(settings["learning_rate"]) and settings["learning_rate"](1.0) == pytest.approx(1e-3)
+    assert settings["mc_mixing"] == 0.5
 
 
 def test_config_errors_name_the_problem(tmp_path) -> None:
