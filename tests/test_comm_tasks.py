@@ -170,3 +170,11 @@ def test_tensorboard_logs_hold_the_communication_scalars(tmp_path) -> None:
         }
         expected.add("gsn/loss" if method == "GSN" else "tcg/grad_norm")
         assert expected <= tags, expected - tags
+
+
+def test_learn_with_progress_bar_and_callbacks() -> None:
+    env = make_comm_vec_env("GuessMyNumber-v0", n_envs=2, seed=0)
+    model = CommDDPG("TCG", env, learning_starts=20, batch_size=8, policy_kwargs=TINY, device="cpu")
+    calls: list[int] = []
+    model.learn(60, progress_bar=True, callback=lambda _l, _g: calls.append(1) or True)
+    assert len(calls) == 30  # one call per VecEnv step of 2 games
