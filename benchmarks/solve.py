@@ -1,0 +1,186 @@
+"""Train methods on a task and measure how close to the oracle they get, and how fast.
+
+Each (method, seed) run trains CommDDPG with the packaged hyperparameters (``zoo_configs/``),
+evaluates the deterministic team every ``--eval-freq`` steps on 100 parallel games, records the
+wall-clock training time (evaluations excluded) and steps at which the mean return first reached
+``--target-fraction`` × the oracle's return, and ends with a final 100-episode evaluation with the
+messages intact, zeroed and shuffled (the paper's ablation). Runs go in parallel, one process per
+core, each with one torch thread.
+
+    python benchmarks/solve.py --env BlindSoccer-v0 --methods GSN NONE --seeds 0 --time-budget 1800
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing as mp
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import RESULTS_DIR, write_results
+
+ORACLE_KEYS = {"BlindSoccer-v0": "blind_soccer", "GuessMyNumber-v0": "guess_my_number"}
+
+
+def oracle_returns(env_id: str) -> tuple[float, float]:
+    """Mean team return of the oracle and of the random policy (benchmarks/results/oracles.json)."""
+    data = json.loads((RESULTS_DIR / "oracles.json").read_text())[ORACLE_KEYS[env_id]]
+    return data["oracle"]["team_return"]["mean"], data["random"]["team_return"]["mean"]
+
+
+class TimeBudget:
+    """Stops training after ``seconds`` of wall-clock time (an SB3 callback, built lazily)."""
+
+    @staticmethod
+    def make(seconds: float):
+        from stable_baselines3.common.callbacks import BaseCallback
+
+        class _Budget(BaseCallback):
+            def _on_training_start(self) -> None:
+                self.deadline = time.perf_counter() + seconds
+
+            def _on_step(self) -> bool:
+                return time.perf_counter() < self.deadline
+
+        return _Budget()
+
+
+def run_one(job: dict[str, Any]) -> dict[str, Any]:
+    """Train and evaluate one (method, seed); returns a JSON-friendly record."""
+    import torch as th
+    from stable_baselines3.common.callbacks import CallbackList
+
+    from sb3_comm import CommDDPG, make_comm_vec_env
+    from sb3_comm.callbacks import TeamEvalCallback
+    from sb3_comm.config import load_hyperparams
+    from sb3_comm.evaluation import evaluate_team
+
+    th.set_num_threads(1)
+    env_id, method, seed = job["env"], job["method"], job["seed"]
+    settings = load_hyperparams(method, env_id)
+    settings.update(job["overrides"])
+    n_envs = int(settings.pop("n_envs"))
+    timesteps = int(job["timesteps"] or settings.pop("n_timesteps"))
+    settings.pop("n_timesteps", None)
+    settings.pop("policy")
+    model = CommDDPG(
+        method, make_comm_vec_env(env_id, n_envs=n_envs, seed=seed), seed=seed, device="cpu", **settings
+    )
+    curve_path = Path(job["save_dir"] or "runs/benchmarks") / f"{env_id}_{method}_seed{seed}_curve.json"
+    evaluator = TeamEvalCallback(
+        env_id,
+        eval_freq=job["eval_freq"],
+        n_episodes=100,
+        target_return=job["target"],
+        seed=10_000,
+        log_path=curve_path,
+    )
+    began = time.perf_counter()
+    model.learn(timesteps, callback=CallbackList([evaluator, TimeBudget.make(job["time_budget"])]))
+    train_seconds = time.perf_counter() - began - evaluator._eval_seconds
+    final = {
+        ablation: evaluate_team(model, env_id, n_episodes=100, seed=20_000, ablation=ablation).summary()
+        for ablation in ("none", "zero", "shuffle")
+    }
+    if job["save_dir"]:
+        path = Path(job["save_dir"]) / f"{env_id}_{method}_seed{seed}.zip"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        model.save(path)
+    return {
+        "method": method,
+        "seed": seed,
+        "n_envs": n_envs,
+        "timesteps": model.num_timesteps,
+        "updates": model._n_updates,
+        "train_seconds": train_seconds,
+        "time_to_target_seconds": evaluator.time_to_target,
+        "steps_to_target": evaluator.steps_to_target,
+        "final": final,
+        "curve": evaluator.history,
+        "settings": {k: (v if not callable(v) else repr(v)) for k, v in settings.items()},
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--env", default="BlindSoccer-v0", choices=sorted(ORACLE_KEYS))
+    parser.add_argument("--methods", nargs="+", default=["GSN", "NONE"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0])
+    parser.add_argument("--timesteps", type=int, default=None, help="override the config's n_timesteps")
+    parser.add_argument("--time-budget", type=float, default=1800.0, help="seconds of training per run")
+    parser.add_argument("--eval-freq", type=int, default=50_000)
+    parser.add_argument("--target-fraction", type=float, default=0.9)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--params", nargs="*", default=[], help="hyperparameter overrides key=value")
+    parser.add_argument("--save-dir", default="runs/benchmarks", help="where the trained models go")
+    parser.add_argument("--name", default=None, help="result file stem")
+    args = parser.parse_args()
+
+    from sb3_comm.cli import parse_overrides
+
+    oracle, random_return = oracle_returns(args.env)
+    target = args.target_fraction * oracle
+    jobs = [
+        {
+            "env": args.env,
+            "method": method.upper(),
+            "seed": seed,
+            "timesteps": args.timesteps,
+            "time_budget": args.time_budget,
+            "eval_freq": args.eval_freq,
+            "target": target,
+            "overrides": parse_overrides(args.params),
+            "save_dir": args.save_dir,
+        }
+        for method in args.methods
+        for seed in args.seeds
+    ]
+    with mp.get_context("spawn").Pool(min(args.workers, len(jobs))) as pool:
+        runs = pool.map(run_one, jobs)
+
+    rows = [
+        "| method | seed | env steps | train time (s) | final return | fraction of oracle | "
+        "time to target (s) | steps to target | zeroed messages | shuffled messages |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for run in runs:
+        fin = run["final"]
+        ttt, stt = run["time_to_target_seconds"], run["steps_to_target"]
+        rows.append(
+            f"| {run['method']} | {run['seed']} | {run['timesteps']:,} | {run['train_seconds']:.0f} | "
+            f"{fin['none']['mean_return']:.3f} | {fin['none']['mean_return'] / oracle:.2f} | "
+            f"{'not reached' if ttt is None else f'{ttt:.0f}'} | "
+            f"{'—' if stt is None else f'{stt:,}'} | "
+            f"{fin['zero']['mean_return']:.3f} | {fin['shuffle']['mean_return']:.3f} |"
+        )
+    notes = (
+        f"\n\nOracle return {oracle:.4f}, random {random_return:.4f} (`benchmarks/results/oracles.json`); "
+        f"target = {args.target_fraction} × oracle = {target:.4f}. Returns are team means over 100 "
+        "deterministic evaluation episodes. Time to target is training wall-clock time with the "
+        f"periodic evaluations (every {args.eval_freq:,} steps) excluded; each run is one process with "
+        f"one torch thread, {min(args.workers, len(jobs))} runs in parallel on this machine. Time budget "
+        f"per run: {args.time_budget:.0f} s."
+    )
+    write_results(
+        args.name or f"solve_{ORACLE_KEYS[args.env]}",
+        {
+            "env": args.env,
+            "oracle_return": oracle,
+            "random_return": random_return,
+            "target": target,
+            "args": vars(args),
+            "runs": runs,
+        },
+        "\n".join(rows) + notes,
+        title=f"{args.env}: return as a fraction of the oracle, and time to {args.target_fraction} × oracle",
+    )
+
+
+if __name__ == "__main__":
+    main()
