@@ -111,7 +111,8 @@ def _train(args: argparse.Namespace) -> int:
         )
     finally:
         model.save(run_dir / "model.zip")
-    final = evaluator.evaluate()
+    evaluated_now = evaluator.history and evaluator.history[-1]["timesteps"] == model.num_timesteps
+    final = evaluator.history[-1] if evaluated_now else evaluator.evaluate()
     print(
         f"Done in {time.perf_counter() - began:.0f} s. Final evaluation ({args.eval_episodes} episodes): "
         f"mean return {final['mean_return']:.4f}"
