@@ -81,7 +81,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
     )
     began = time.perf_counter()
     model.learn(timesteps, callback=CallbackList([evaluator, TimeBudget.make(job["time_budget"])]))
-    train_seconds = time.perf_counter() - began - evaluator._eval_seconds
+    train_seconds = time.perf_counter() - began - evaluator.eval_seconds
     final = {
         ablation: evaluate_team(model, env_id, n_episodes=100, seed=20_000, ablation=ablation).summary()
         for ablation in ("none", "zero", "shuffle")

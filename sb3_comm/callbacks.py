@@ -58,7 +58,8 @@ class TeamEvalCallback(BaseCallback):
         self.steps_to_target: int | None = None
         self._next_eval = 0
         self._start = 0.0
-        self._eval_seconds = 0.0
+        self.eval_seconds = 0.0
+        """Wall-clock seconds spent in evaluations so far (excluded from the training time)."""
 
     def _on_training_start(self) -> None:
         self._start = time.perf_counter()
@@ -70,10 +71,10 @@ class TeamEvalCallback(BaseCallback):
         result = evaluate_team(
             self.model, self.env_id, n_episodes=self.n_episodes, seed=self.seed, env_kwargs=self.env_kwargs
         )
-        self._eval_seconds += time.perf_counter() - began
+        self.eval_seconds += time.perf_counter() - began
         summary = result.summary()
         # Training time excludes the evaluations themselves.
-        elapsed = time.perf_counter() - self._start - self._eval_seconds
+        elapsed = time.perf_counter() - self._start - self.eval_seconds
         point = {"timesteps": self.num_timesteps, "seconds": elapsed, **summary}
         self.history.append(point)
         self.logger.record("eval/mean_return", summary["mean_return"])
