@@ -44,7 +44,7 @@ def test_tcg_message_gradient_is_the_receivers_critic_gradient() -> None:
     with th.no_grad():
         rows = data.next_observations.clone()
         rows[:, 1, layout.obs_dim - n :] = m.detach()
-        a_next = policy.assemble_actions(rows, policy.actor_outputs(rows))[:, 1]
+        a_next = policy.actor_outputs(rows)[:, 1]
     receiver_critic = policy.critic[0].nets[1]
     q = receiver_critic(th.cat([o_next_m, a_next], dim=-1)).sum()
     expected = th.autograd.grad(q, m)[0] * (1 - data.dones)
@@ -53,12 +53,12 @@ def test_tcg_message_gradient_is_the_receivers_critic_gradient() -> None:
 
     # The message part of the actor's ascent direction is exactly that (no inversion: tanh heads),
     # and the sender's own critic contributes nothing: zeroing the receivers' critics zeroes it.
-    grad, _, _ = model.actor_output_gradients(data.observations, out, data.next_observations, data.dones)
+    grad, _ = model.actor_output_gradients(data.observations, out, data.next_observations, data.dones)
     th.testing.assert_close(grad[..., env_dim:], got)
     with th.no_grad():
         for net in policy.critic[0].nets:
             net[-1].weight.zero_()
-    grad_zero, _, _ = model.actor_output_gradients(data.observations, out, data.next_observations, data.dones)
+    grad_zero, _ = model.actor_output_gradients(data.observations, out, data.next_observations, data.dones)
     assert th.count_nonzero(grad_zero[..., env_dim:]) == 0
 
 
@@ -67,7 +67,7 @@ def test_rial_message_gradient_comes_from_own_critic() -> None:
     policy, layout = model.policy, model.comm_layout
     data = batch(model)
     out = policy.actor_outputs(data.observations).detach()
-    grad, _, _ = model.actor_output_gradients(data.observations, out, data.next_observations, data.dones)
+    grad, _ = model.actor_output_gradients(data.observations, out, data.next_observations, data.dones)
     actions = policy.assemble_actions(data.observations, out).requires_grad_(True)
     q = policy.q_values(data.observations, actions)[0].sum()
     expected = th.autograd.grad(q, actions)[0][..., layout.action_message_slice]

@@ -330,8 +330,8 @@ class CommDDPG(TD3):
                 if self.target_policy_noise > 0:
                     noise = th.randn_like(next_out) * self.target_policy_noise
                     next_out = next_out + noise.clamp(-self.target_noise_clip, self.target_noise_clip)
-                next_actions = policy.assemble_actions(next_obs, next_out).clamp(-1.0, 1.0)
-                next_q = th.stack(policy.q_values(next_obs, next_actions, target=True)).min(dim=0).values
+                next_out = next_out.clamp(-1.0, 1.0)
+                next_q = th.stack(policy.q_values(next_obs, next_out, target=True)).min(dim=0).values
                 target_q = data.rewards + (1.0 - data.dones) * self.gamma * next_q
                 if self.mc_mixing > 0:
                     mixed = self.mc_mixing * data.mc_returns + (1.0 - self.mc_mixing) * target_q
@@ -346,7 +346,7 @@ class CommDDPG(TD3):
 
             # (2) actor, driven by the ascent direction of each of its outputs
             out = policy.actor_outputs(obs)
-            grad, own_q, messages = self.actor_output_gradients(obs, out.detach(), next_obs, data.dones)
+            grad, own_q = self.actor_output_gradients(obs, out.detach(), next_obs, data.dones)
             # Surrogate whose gradient w.r.t. the actor outputs is exactly -grad (per sample).
             actor_surrogate = -(out * grad).sum(dim=-1).mean()
             self._optimize(self.actor, actor_surrogate)
@@ -354,6 +354,11 @@ class CommDDPG(TD3):
             if policy.method == "TCG":
                 tcg_norms.append(grad[..., env_dim:].norm(dim=-1).mean().item())
             if layout.channel_size:
+                # The messages sent: actor outputs (RIAL, TCG) or what the GSN sent when acting.
+                sent = actions[..., layout.action_message_slice]
+                if policy.has_comm_actions:
+                    sent = out[..., env_dim:]
+                messages = sent.detach()
                 message_means.append(messages.mean().item())
                 message_stds.append(messages.std().item())
 
@@ -373,8 +378,8 @@ class CommDDPG(TD3):
 
     def actor_output_gradients(
         self, obs: th.Tensor, out: th.Tensor, next_obs: th.Tensor, dones: th.Tensor
-    ) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
-        """Ascent direction for every actor output, the own critic's Q, and the messages sent.
+    ) -> tuple[th.Tensor, th.Tensor]:
+        """Ascent direction for every actor output, and the own critic's Q.
 
         The environment-action part is ``dQ_own/da`` at the actor's current action. The message
         part is ``dQ_own/dm`` for RIAL, the receiver's gradient
@@ -385,22 +390,18 @@ class CommDDPG(TD3):
         :param out: ``(B, n_agents, actor_out_dim)`` bounded actor outputs (detached).
         :param next_obs: ``(B, n_agents, obs_dim)``.
         :param dones: ``(B, 1)`` terminal flags.
-        :return: ``grad`` shaped like ``out``, ``own_q`` ``(B, n_agents)``, messages ``(B, n_agents, n)``.
+        :return: ``grad`` shaped like ``out`` and ``own_q`` ``(B, n_agents)``.
         """
-        policy, layout = self.policy, self.comm_layout
+        policy = self.policy
         env_dim = policy.env_action_dim
-        current = policy.assemble_actions(obs, out).requires_grad_(True)
+        current = out.detach().requires_grad_(True)
         own_q = policy.q_values(obs, current)[0]
-        dq_da = th.autograd.grad(own_q.sum(), current)[0]
-        grad = th.zeros_like(out)
-        grad[..., :env_dim] = dq_da[..., :env_dim]
-        if policy.method == "RIAL":
-            grad[..., env_dim:] = dq_da[..., layout.action_message_slice]
-        elif policy.method == "TCG":
+        grad = th.autograd.grad(own_q.sum(), current)[0]
+        if policy.method == "TCG":
             grad[..., env_dim:] = self.teammate_message_gradients(out, next_obs, dones)
         if policy.hybrid:
             grad = inverting_gradients(grad, out)
-        return grad, own_q.detach(), current[..., layout.action_message_slice].detach()
+        return grad, own_q.detach()
 
     def teammate_message_gradients(self, out: th.Tensor, next_obs: th.Tensor, dones: th.Tensor) -> th.Tensor:
         """TCG (paper §5): each sender's message gradient from its receiver's critic.
@@ -422,7 +423,7 @@ class CommDDPG(TD3):
         received = out[..., policy.env_action_dim :].detach().flip(1).clone().requires_grad_(True)
         next_rows = th.cat([next_obs[..., :start], received], dim=-1)
         with th.no_grad():
-            next_actions = policy.assemble_actions(next_rows, policy.actor_outputs(next_rows))
+            next_actions = policy.actor_outputs(next_rows)
         receiver_q = policy.q_values(next_rows, next_actions)[0]
         grad_received = th.autograd.grad(receiver_q.sum(), received)[0]
         return self.tcg_gain * grad_received.flip(1) * (1.0 - dones).unsqueeze(-1)

@@ -2,7 +2,9 @@
 
 Per agent, the actor outputs the environment action (for HFO: 3 action scores and 5 parameters)
 and, for RIAL and TCG, ``n`` communication values. The executed action is the argmax score with
-its parameters (the environment decodes it); the critic sees the observation and *all* outputs.
+its parameters (the environment decodes it); the critic sees the observation and *all* actor
+outputs. GSN and NONE messages are not actor outputs (they come from the GSN, or are zero), so their
+critic does not see the outgoing message; RIAL and TCG messages are actions and their critic does.
 Bounded hybrid outputs are linear and kept in range with inverting gradients (ICLR 2016); a plain
 ``Box`` action uses ``tanh`` heads as SB3's TD3 does. Everything works in SB3's scaled action
 space [-1, 1]; ``predict`` rescales to the environment's bounds.
@@ -112,7 +114,7 @@ class CommPolicy(BasePolicy):
 
         def make_critics() -> nn.ModuleList:
             return nn.ModuleList(
-                AgentMLPs(n, obs_dim + layout.action_dim, 1, critic_arch, activation_fn, share_parameters)
+                AgentMLPs(n, obs_dim + self.actor_out_dim, 1, critic_arch, activation_fn, share_parameters)
                 for _ in range(n_critics)
             )
 
@@ -179,9 +181,15 @@ class CommPolicy(BasePolicy):
         return self.bound_outputs(actor(obs))
 
     def q_values(self, obs: th.Tensor, actions: th.Tensor, target: bool = False) -> list[th.Tensor]:
-        """Each critic's ``Q(o, a)`` per agent, ``(B, n_agents)``."""
+        """Each critic's ``Q(o, a)`` per agent, ``(B, n_agents)``.
+
+        :param obs: ``(B, n_agents, obs_dim)``.
+        :param actions: bounded actor outputs ``(B, n_agents, actor_out_dim)``, or full action rows
+            ``(B, n_agents, action_dim)`` as stored in the replay buffer (the outgoing message of
+            GSN and NONE, which is not an actor output, is then dropped).
+        """
         critics = self.critic_target if target else self.critic
-        x = th.cat([obs, actions], dim=-1)
+        x = th.cat([obs, actions[..., : self.actor_out_dim]], dim=-1)
         return [critic(x).squeeze(-1) for critic in critics]
 
     # ---------------------------------------------------------------------------- SB3 API --
