@@ -1,7 +1,9 @@
-"""Command line: ``sb3-comm train`` and ``sb3-comm evaluate``.
+"""Command line: ``sb3-comm train``, ``evaluate``, ``record-video`` and ``zoo``.
 
     sb3-comm train --env BlindSoccer-v0 --method GSN
     sb3-comm evaluate runs/BlindSoccer-v0/GSN_seed0/model.zip --ablation zero
+    sb3-comm record-video runs/BlindSoccer-v0/GSN_seed0/model.zip -o gsn.gif [--no-comm]
+    sb3-comm zoo train --env BlindSoccer-v0 --method GSN -f logs   # rl-zoo3, every flag
 
 ``train`` reads the packaged hyperparameters of the method (``zoo_configs/<method>.yml``), trains
 with a progress bar, evaluates periodically, and writes TensorBoard logs, the learning curve and
@@ -138,6 +140,41 @@ def _evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _record_video(args: argparse.Namespace) -> int:
+    import gymnasium as gym
+    import numpy as np
+
+    from envs.video import record_episode
+    from sb3_comm import CommDDPG
+
+    model = CommDDPG.load(args.model, device=args.device)
+    env_id = args.env or _env_of(Path(args.model))
+    env = gym.make(env_id, render_mode="rgb_array")
+    layout = model.comm_layout
+
+    def policy(obs: np.ndarray) -> np.ndarray:
+        if args.no_comm and layout.channel_size:
+            obs = obs.copy()
+            obs[..., layout.obs_message_slice] = 0.0  # the receivers hear nothing
+        action, _ = model.predict(obs, deterministic=True)
+        return action
+
+    model_path = Path(args.model)
+    suffix = "_nocomm" if args.no_comm else ""
+    out = Path(args.output) if args.output else model_path.with_name(f"{model_path.stem}{suffix}.gif")
+    for episode in range(args.episodes):
+        path = out if args.episodes == 1 else out.with_name(f"{out.stem}_{episode}{out.suffix}")
+        record_episode(env, policy, path, fps=args.fps, seed=args.seed + episode)
+        print(f"wrote {path}")
+    return 0
+
+
+def _zoo(args: argparse.Namespace) -> int:
+    from sb3_comm.zoo import run
+
+    return run(args.zoo_command, args.zoo_args)
+
+
 def _env_of(model_path: Path) -> str:
     config = model_path.parent / "config.yml"
     if config.exists():
@@ -181,6 +218,24 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--ablation", choices=ABLATIONS, default="none")
     evaluate.add_argument("--device", default="cpu")
     evaluate.set_defaults(func=_evaluate)
+
+    video = sub.add_parser("record-video", help="write a GIF or MP4 of a saved model, messages shown as bars")
+    video.add_argument("model", help="path of a saved model.zip")
+    video.add_argument("--env", default=None, help="task id (default: from the run's config.yml)")
+    video.add_argument("--output", "-o", default=None, help="file .gif or .mp4 (default: next to the model)")
+    video.add_argument("--episodes", type=int, default=1)
+    video.add_argument("--seed", type=int, default=0)
+    video.add_argument("--fps", type=int, default=10)
+    video.add_argument("--no-comm", action="store_true", help="receivers hear zeros (the paper's ablation)")
+    video.add_argument("--device", default="cpu")
+    video.set_defaults(func=_record_video)
+
+    zoo = sub.add_parser(
+        "zoo", help="rl-zoo3's train/enjoy/record_video with CommDDPG (see python -m sb3_comm.zoo)"
+    )
+    zoo.add_argument("zoo_command", choices=("train", "enjoy", "record_video"))
+    zoo.add_argument("zoo_args", nargs=argparse.REMAINDER, help="rl-zoo3 flags")
+    zoo.set_defaults(func=_zoo)
     return parser
 
 

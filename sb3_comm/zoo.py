@@ -1,0 +1,212 @@
+"""rl-zoo3 integration: CommDDPG as an rl-zoo3 algorithm, with every rl-zoo3 flag.
+
+    python -m sb3_comm.zoo train --env BlindSoccer-v0 --method GSN -n 20000 -f logs -tb tb
+    python -m sb3_comm.zoo enjoy --env BlindSoccer-v0 -f logs -n 500
+    python -m sb3_comm.zoo record_video --env BlindSoccer-v0 -f logs -n 200
+    python -m sb3_comm.zoo train --env BlindSoccer-v0 --method GSN -optimize --n-trials 20 \\
+        --storage sqlite:///study.db --study-name gsn   # start it twice: two workers share the study
+
+(``sb3-comm zoo ...`` is the same.) :func:`register` adds the algorithms ``commddpg`` and
+``hybrid_ddpg`` to rl-zoo3's ``ALGOS`` together with a hyperparameter sampler for Optuna, then the
+command is rl-zoo3's own ``train``, ``enjoy`` or ``record_video``. Two additions before that:
+
+* ``--method NONE|RIAL|TCG|GSN`` picks the packaged hyperparameter file ``zoo_configs/<method>.yml``
+  when no ``-conf`` is given (``--algo`` defaults to ``commddpg``);
+* for ``train``, the file's entry for ``--env`` and any ``-params`` are checked first: an unknown
+  key, a method that does not exist or a file without the env fail with a message naming them,
+  before rl-zoo3 starts (and so before it creates a log folder).
+
+The environments only render ``rgb_array``: ``enjoy`` runs without a window (``--no-render`` is
+added); ``record_video`` writes an MP4.
+"""
+
+from __future__ import annotations
+
+import argparse
+import runpy
+import sys
+from pathlib import Path
+from typing import Any
+
+from sb3_comm.comm_ddpg import METHODS, CommDDPG, HybridDDPG
+from sb3_comm.config import CONFIG_DIR, accepted_keys, config_path, load_hyperparams
+
+__all__ = ["ZOO_ALGOS", "convert_commddpg_params", "main", "register", "sample_commddpg_params"]
+
+ZOO_ALGOS: dict[str, type[CommDDPG]] = {"commddpg": CommDDPG, "hybrid_ddpg": HybridDDPG}
+"""rl-zoo3 algorithm names of this package."""
+
+COMMANDS = ("train", "enjoy", "record_video")
+
+NET_ARCHS = {"small": [64, 64], "medium": [256, 256], "big": [400, 300]}
+
+
+def sample_commddpg_params(trial: Any, n_actions: int, n_envs: int, additional_args: dict) -> dict[str, Any]:
+    """Optuna search space of CommDDPG (rl-zoo3's ``HYPERPARAMS_SAMPLER`` signature).
+
+    Learning rates of critic, actor and GSN, batch size, τ, γ, the Monte-Carlo mixing β, the
+    exploration schedule and the hidden layers. The GSN rate is sampled for every method and only
+    used by GSN.
+    """
+    sampled = {
+        "learning_rate": trial.suggest_float("learning_rate", 1e-4, 3e-3, log=True),
+        "actor_learning_rate": trial.suggest_float("actor_learning_rate", 1e-5, 1e-3, log=True),
+        "gsn_learning_rate": trial.suggest_float("gsn_learning_rate", 1e-5, 3e-3, log=True),
+        "batch_size_pow": trial.suggest_int("batch_size_pow", 5, 8),
+        "tau": trial.suggest_float("tau", 1e-3, 2e-2, log=True),
+        "one_minus_gamma": trial.suggest_float("one_minus_gamma", 1e-3, 3e-2, log=True),
+        "mc_mixing": trial.suggest_float("mc_mixing", 0.0, 1.0),
+        "exploration_fraction": trial.suggest_float("exploration_fraction", 0.05, 0.5),
+        "exploration_final_eps": trial.suggest_float("exploration_final_eps", 0.01, 0.2),
+        "net_arch": trial.suggest_categorical("net_arch", list(NET_ARCHS)),
+    }
+    return convert_commddpg_params(sampled)
+
+
+def convert_commddpg_params(sampled: dict[str, Any]) -> dict[str, Any]:
+    """Optuna's sampled values (``batch_size_pow``, ``one_minus_gamma``, ``net_arch`` names) to
+    CommDDPG keyword arguments (rl-zoo3's ``HYPERPARAMS_CONVERTER`` signature)."""
+    params = dict(sampled)
+    if "batch_size_pow" in params:
+        params["batch_size"] = 2 ** params.pop("batch_size_pow")
+    if "one_minus_gamma" in params:
+        params["gamma"] = 1.0 - params.pop("one_minus_gamma")
+    if "net_arch" in params:
+        params["policy_kwargs"] = {"net_arch": NET_ARCHS[params.pop("net_arch")]}
+    return params
+
+
+def register() -> None:
+    """Make ``commddpg`` and ``hybrid_ddpg`` rl-zoo3 algorithms, with their Optuna sampler.
+
+    Idempotent. rl-zoo3's scripts read the same dictionaries, so after this call
+    ``rl_zoo3.train.train()`` accepts ``--algo commddpg``.
+    """
+    import rl_zoo3.hyperparams_opt as opt
+    import rl_zoo3.utils as zoo_utils
+
+    import sb3_comm.registration  # noqa: F401  (registers the gym ids)
+
+    zoo_utils.ALGOS.update(ZOO_ALGOS)
+    for name in ZOO_ALGOS:
+        opt.HYPERPARAMS_SAMPLER[name] = sample_commddpg_params
+        opt.HYPERPARAMS_CONVERTER[name] = convert_commddpg_params
+
+
+def _parse_zoo_params(items: list[str]) -> dict[str, str]:
+    """rl-zoo3's ``-params key:value`` items as a dict (values are not evaluated here)."""
+    params = {}
+    for item in items:
+        if ":" not in item:
+            raise ValueError(f"-params takes key:value items (rl-zoo3 format), got {item!r}")
+        key, value = item.split(":", 1)
+        params[key] = value
+    return params
+
+
+def prepare_args(command: str, argv: list[str]) -> list[str]:
+    """Check and complete the arguments of an rl-zoo3 ``command`` (see the module docstring).
+
+    :return: the arguments to hand to rl-zoo3.
+    :raises ValueError: an unknown command, method, env entry, or hyperparameter key.
+    """
+    if command not in COMMANDS:
+        raise ValueError(f"Unknown rl-zoo3 command {command!r}; accepted: {list(COMMANDS)}")
+    parser = argparse.ArgumentParser(add_help=False)
+    parser.add_argument("--algo", default="commddpg")
+    parser.add_argument("--method", type=str.upper, default=None)
+    parser.add_argument("--env", default=None)
+    parser.add_argument("-conf", "--conf-file", dest="conf", default=None)
+    parser.add_argument("-params", "--hyperparams", dest="params", nargs="+", default=[])
+    parser.add_argument("--no-render", action="store_true")
+    known, rest = parser.parse_known_args(argv)
+    if known.algo not in ZOO_ALGOS:
+        # Another rl-zoo3 algorithm: hand over untouched (the ids are registered anyway).
+        return argv
+    if known.method is not None and known.method not in METHODS:
+        raise ValueError(f"Unknown communication method {known.method!r}; accepted: {list(METHODS)}")
+    args = ["--algo", known.algo, *rest]
+    if known.env is not None:
+        args += ["--env", known.env]
+    if known.params:
+        args += ["-params", *known.params]
+    if command == "enjoy":
+        args.append("--no-render")  # rgb_array only: no window to show
+    elif known.no_render:
+        args.append("--no-render")
+    if command != "train":
+        return args
+    if known.env is None:
+        raise ValueError("train needs --env (e.g. --env BlindSoccer-v0)")
+    conf = known.conf
+    if conf is None:
+        conf = str(CONFIG_DIR / "hybrid_ddpg.yml") if known.algo == "hybrid_ddpg" else None
+        conf = conf or str(config_path(known.method or "GSN"))
+        print(f"sb3-comm: hyperparameters from {conf}", file=sys.stderr)
+    entry = _entry(Path(conf), known.env)
+    if known.algo == "commddpg":
+        method = known.method or str(entry.get("policy", "GSN")).upper()
+        load_hyperparams(method, known.env, conf)  # raises on a bad method, entry or key
+    unknown = sorted(set(entry) - set(accepted_keys()))
+    if unknown:
+        raise ValueError(
+            f"{conf}: unknown key(s) {unknown} for {known.env!r}; accepted keys: {accepted_keys()}"
+        )
+    unknown = sorted(set(_parse_zoo_params(known.params)) - set(accepted_keys()))
+    if unknown:
+        raise ValueError(f"-params: unknown key(s) {unknown}; accepted keys: {accepted_keys()}")
+    return [*args, "-conf", conf]
+
+
+def _entry(path: Path, env_id: str) -> dict[str, Any]:
+    """The settings of ``env_id`` in an rl-zoo3 hyperparameter file."""
+    import yaml
+
+    try:
+        data = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise FileNotFoundError(f"Hyperparameter file {path} does not exist") from None
+    except yaml.YAMLError as error:
+        raise ValueError(f"Hyperparameter file {path} is not valid YAML: {error}") from error
+    entry = data.get(env_id) if isinstance(data, dict) else None
+    if not isinstance(entry, dict):
+        configured = sorted(data) if isinstance(data, dict) else []
+        raise ValueError(f"{path} has no entry for {env_id!r}; it configures: {configured}")
+    return entry
+
+
+def run(command: str, argv: list[str]) -> int:
+    """Register, check the arguments, and run rl-zoo3's ``command`` with them."""
+    args = prepare_args(command, argv)
+    register()
+    from rl_zoo3.enjoy import enjoy
+    from rl_zoo3.train import train
+
+    def record_video() -> None:  # rl-zoo3's record_video is a __main__ script
+        runpy.run_module("rl_zoo3.record_video", run_name="__main__")
+
+    scripts = {"train": train, "enjoy": enjoy, "record_video": record_video}
+    saved_argv = sys.argv
+    sys.argv = [f"rl_zoo3 {command}", *args]
+    try:
+        scripts[command]()
+    finally:
+        sys.argv = saved_argv
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``python -m sb3_comm.zoo COMMAND [rl-zoo3 flags]``."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] in ("-h", "--help"):
+        print(__doc__)
+        return 0
+    try:
+        return run(argv[0], argv[1:])
+    except (ValueError, FileNotFoundError) as error:
+        print(f"sb3-comm zoo: error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
