@@ -23,8 +23,10 @@ added); ``record_video`` writes an MP4.
 from __future__ import annotations
 
 import argparse
+import random
 import runpy
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -175,10 +177,33 @@ def _entry(path: Path, env_id: str) -> dict[str, Any]:
     return entry
 
 
+def init_storage(url: str, attempts: int = 10) -> None:
+    """Create Optuna's tables in the database at ``url`` once, tolerating concurrent workers.
+
+    Two workers started together on a new database both try to create its tables; the one that
+    loses the race gets an integrity error from SQLAlchemy. Trying again, after a short random
+    pause, finds the tables made by the other worker.
+    """
+    import optuna
+
+    for attempt in range(attempts):
+        try:
+            optuna.storages.RDBStorage(url)
+            return
+        except Exception:  # sqlalchemy IntegrityError / OperationalError from the losing worker
+            if attempt == attempts - 1:
+                raise
+            time.sleep(0.2 + random.random())
+
+
 def run(command: str, argv: list[str]) -> int:
     """Register, check the arguments, and run rl-zoo3's ``command`` with them."""
     args = prepare_args(command, argv)
     register()
+    if command == "train" and "--storage" in args:
+        url = args[args.index("--storage") + 1]
+        if not url.endswith(".log"):  # rl-zoo3 opens a .log path as a journal file: no tables
+            init_storage(url)
     from rl_zoo3.enjoy import enjoy
     from rl_zoo3.train import train
 
