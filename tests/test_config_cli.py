@@ -18,7 +18,9 @@ def test_packaged_configs_load(method: str, env_id: str) -> None:
     assert settings["policy"] == method
     assert settings["n_envs"] >= 1 and settings["n_timesteps"] > 0
     assert callable(settings["learning_rate"]) and settings["learning_rate"](1.0) == pytest.approx(1e-3)
-    assert settings["mc_mixing"] == 0.5
+    # Blind Soccer: the sweep's beta = 0.5; Guess My Number: gamma 0.9 and beta 0 (explore_gmn_tcg_*).
+    expected = {"BlindSoccer-v0": (0.99, 0.5), "GuessMyNumber-v0": (0.9, 0.0)}[env_id]
+    assert (settings["gamma"], settings["mc_mixing"]) == expected
 
 
 def test_config_errors_name_the_problem(tmp_path) -> None:
