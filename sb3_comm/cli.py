@@ -1,9 +1,12 @@
-"""Command line: ``sb3-comm train``, ``evaluate``, ``record-video`` and ``zoo``.
+"""The ``sb3-comm`` command line: train, evaluate, record-video, zoo, experiment, reproduce, report.
 
     sb3-comm train --env BlindSoccer-v0 --method GSN
     sb3-comm evaluate runs/BlindSoccer-v0/GSN_seed0/model.zip --ablation zero
     sb3-comm record-video runs/BlindSoccer-v0/GSN_seed0/model.zip -o gsn.gif [--no-comm]
     sb3-comm zoo train --env BlindSoccer-v0 --method GSN -f logs   # rl-zoo3, every flag
+    sb3-comm experiment paper --quick --workers 2                  # many runs from a YAML file
+    sb3-comm reproduce                                             # the paper's runs, then the report
+    sb3-comm report runs/experiments/paper                         # the report of an experiment folder
 
 ``train`` reads the packaged hyperparameters of the method (``zoo_configs/<method>.yml``), trains
 with a progress bar, evaluates periodically, and writes TensorBoard logs, the learning curve and
@@ -175,6 +178,66 @@ def _zoo(args: argparse.Namespace) -> int:
     return run(args.zoo_command, args.zoo_args)
 
 
+def _run_experiment(args: argparse.Namespace, file_or_name: str) -> tuple[int, Path]:
+    from sb3_comm.experiments import load_experiment, run_experiment
+
+    if args.workers is not None and args.workers < 0:
+        raise ValueError(f"--workers must be 0 (in this process) or more, got {args.workers}")
+    spec = load_experiment(file_or_name, quick=args.quick)
+    default = Path("runs/experiments") / f"{spec.name}{'-quick' if spec.is_quick else ''}"
+    out = Path(args.out) if args.out else default
+    summary = run_experiment(
+        spec,
+        out,
+        workers=args.workers,
+        ray_address=args.ray_address,
+        only=getattr(args, "only", None),
+        rerun_failed=getattr(args, "rerun_failed", False),
+    )
+    return (1 if summary["counts"]["failed"] else 0), out
+
+
+def _experiment(args: argparse.Namespace) -> int:
+    try:
+        return _run_experiment(args, args.experiment)[0]
+    except (ImportError, ConnectionError) as error:  # Ray missing or unreachable
+        print(f"sb3-comm: error: {error}", file=sys.stderr)
+        return 2
+
+
+def _reproduce(args: argparse.Namespace) -> int:
+    try:
+        status, out = _run_experiment(args, "paper")
+        from sb3_comm.analysis import make_report
+    except (ImportError, ConnectionError) as error:
+        print(f"sb3-comm: error: {error}", file=sys.stderr)
+        return 2
+    print(f"Writing the report of {out} ...")
+    make_report(out)
+    print(f"Report: {out / 'report'}")
+    for page in sorted((out / "report").glob("*.md")):
+        print(f"  {page}")
+    if status:
+        print("Some runs failed: the report covers the finished runs only (see above to re-run them).")
+    return status
+
+
+def _report(args: argparse.Namespace) -> int:
+    from sb3_comm.analysis import make_report
+
+    folder = Path(args.experiment_dir)
+    if not (folder / "runs").is_dir():
+        raise FileNotFoundError(f"{folder} is not an experiment folder (it has no runs/ folder)")
+    out = Path(args.to) if args.to else folder / "report"
+    report = make_report(folder, out)
+    print(f"Report: {out}")
+    for page in sorted(out.glob("*.md")):
+        print(f"  {page}")
+    for skipped in report.get("skipped", []):
+        print(f"  not used: {skipped['dir']}: {skipped['reason']}")
+    return 0
+
+
 def _env_of(model_path: Path) -> str:
     config = model_path.parent / "config.yml"
     if config.exists():
@@ -236,6 +299,52 @@ def build_parser() -> argparse.ArgumentParser:
     zoo.add_argument("zoo_command", choices=("train", "enjoy", "record_video"))
     zoo.add_argument("zoo_args", nargs=argparse.REMAINDER, help="rl-zoo3 flags")
     zoo.set_defaults(func=_zoo)
+
+    def experiment_options(command: argparse.ArgumentParser) -> None:
+        command.add_argument(
+            "--quick", action="store_true", help="the file's quick settings: 1 seed, short runs"
+        )
+        command.add_argument(
+            "--out", default=None, help="experiment folder (default: runs/experiments/<name>[-quick])"
+        )
+        command.add_argument(
+            "--workers",
+            type=int,
+            default=None,
+            help="runs at a time, one process each (default: usable cores; 0: one after another in this "
+            "process); with --ray-address local: the CPUs of the Ray instance",
+        )
+        command.add_argument(
+            "--ray-address",
+            default=None,
+            help="run on Ray: 'auto' (running cluster), 'host:port', or 'local' (start one here)",
+        )
+
+    experiment = sub.add_parser(
+        "experiment", help="train every method/task/seed of an experiment YAML file, resuming finished runs"
+    )
+    experiment.add_argument("experiment", help="experiment YAML file or packaged name (paper)")
+    experiment_options(experiment)
+    experiment.add_argument(
+        "--only", nargs="+", metavar="METHOD/TASK/SEED", help="run only these ('*' matches anything)"
+    )
+    experiment.add_argument(
+        "--rerun-failed", action="store_true", help="run only the runs that failed last time"
+    )
+    experiment.set_defaults(func=_experiment)
+
+    reproduce = sub.add_parser(
+        "reproduce", help="the paper's experiment (NONE/RIAL/TCG/GSN x both tasks x 3 seeds), then the report"
+    )
+    experiment_options(reproduce)
+    reproduce.set_defaults(func=_reproduce)
+
+    report = sub.add_parser(
+        "report", help="figures and tables (curves, ablation, t-SNE, CIC, rliable) of an experiment folder"
+    )
+    report.add_argument("experiment_dir", help="the folder of `sb3-comm experiment` (holds runs/)")
+    report.add_argument("--to", default=None, help="output folder (default: EXPERIMENT_DIR/report)")
+    report.set_defaults(func=_report)
     return parser
 
 

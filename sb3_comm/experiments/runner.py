@@ -1,0 +1,546 @@
+"""Run an experiment: one process per run, in parallel on this machine or on a Ray cluster.
+
+Every run trains :class:`~sb3_comm.CommDDPG` with the packaged hyperparameters plus the
+experiment's overrides and writes, into ``OUT/runs/<task>/<method>/seed<seed>-<hash8>/``:
+
+- ``tb/`` (TensorBoard), ``checkpoints/``, ``evaluations.json`` (learning curve), ``config.yml``
+  (what ``sb3-comm evaluate`` reads) and ``model.zip``;
+- ``messages.npz`` (:func:`sb3_comm.analysis.collect_rollout`) for the t-SNE of the messages;
+- ``result.json`` last: curve, final return with messages intact, zeroed and shuffled,
+  communication metrics (:func:`sb3_comm.analysis.analyse_communication`) and timings.
+
+A run that raises writes ``error.txt`` (the traceback) instead; the other runs go on. A run
+whose ``result.json`` exists is skipped, so an interrupted experiment resumes where it stopped;
+a run folder left without ``result.json`` is trained again, its earlier files moved aside to
+``previous_attempts/<k>/`` (nothing is deleted).
+
+>>> from sb3_comm.experiments import load_experiment, run_experiment
+>>> spec = load_experiment("paper", quick=True)
+>>> summary = run_experiment(spec, "runs/experiments/paper-quick")  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import os
+import platform
+import shlex
+import shutil
+import sys
+import time
+import traceback
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import ExitStack, contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from sb3_comm.experiments.spec import EVAL_SEEDS, ExperimentSpec, ExperimentSpecError, RunSpec
+
+__all__ = [
+    "ABLATIONS",
+    "default_workers",
+    "machine_info",
+    "run_experiment",
+    "run_one",
+    "select_runs",
+]
+
+ABLATIONS = ("none", "zero", "shuffle")
+"""Final evaluations: messages intact, zeroed, shuffled across games."""
+
+RAY_MISSING = 'Ray is not installed: pip install "sb3-comm[ray]" (or pip install "ray>=2.9")'
+
+
+def default_workers() -> int:
+    """Number of cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def machine_info() -> dict[str, Any]:
+    """Cores, CPU model, platform and Python version of this machine."""
+    model = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {
+        "cores": os.cpu_count(),
+        "usable_cores": default_workers(),
+        "cpu_model": model,
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "hostname": platform.node(),
+    }
+
+
+def _to_json(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+
+
+def _write_json(path: Path, data: Any) -> None:
+    """Write atomically: a reader never sees half a file."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2, default=_to_json))
+    os.replace(tmp, path)
+
+
+def _move_aside(run_dir: Path) -> None:
+    """Move what an earlier, unfinished attempt left into ``previous_attempts/<k>/``."""
+    leftovers = [p for p in run_dir.iterdir() if p.name != "previous_attempts"]
+    if not leftovers:
+        return
+    k = 1
+    while (run_dir / "previous_attempts" / str(k)).exists():
+        k += 1
+    target = run_dir / "previous_attempts" / str(k)
+    target.mkdir(parents=True)
+    for path in leftovers:
+        shutil.move(str(path), str(target / path.name))
+
+
+def _communication(model: Any, run: RunSpec, run_dir: Path) -> tuple[dict[str, Any] | None, str | None]:
+    """Messages of ``analysis_episodes`` games to ``messages.npz`` and the communication metrics.
+
+    A failure here does not fail the run (the trained model is worth keeping): it is recorded as
+    ``communication: null`` and ``communication_error``.
+    """
+    try:
+        from sb3_comm.analysis import analyse_communication, collect_rollout
+
+        seed = EVAL_SEEDS["analysis"]
+        rollout = collect_rollout(model, run.task, n_episodes=run.analysis_episodes, seed=seed)
+        rollout.save(run_dir / "messages.npz")
+        metrics = analyse_communication(
+            model, run.task, n_episodes=run.analysis_episodes, seed=seed, rollout=rollout
+        )
+        return json.loads(json.dumps(metrics, default=_to_json)), None
+    except Exception:
+        return None, traceback.format_exc()
+
+
+def run_one(run: RunSpec, run_dir: str | Path) -> dict[str, Any]:
+    """Train, evaluate and analyse one run into ``run_dir``; never raises.
+
+    :param run: the resolved run.
+    :param run_dir: its folder (created; an unfinished earlier attempt there is moved aside).
+    :return: ``result.json``'s content when done, else ``{"status": "failed", "error": ...}``.
+    """
+    began = time.perf_counter()
+    started = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    if (run_dir / "result.json").exists():  # finished meanwhile (another invocation)
+        return {**json.loads((run_dir / "result.json").read_text()), "status": "skipped"}
+    _move_aside(run_dir)
+    import torch as th
+
+    threads = th.get_num_threads()
+    th.set_num_threads(1)  # one core per run; runs go in parallel
+    try:
+        return _train_and_evaluate(run, run_dir, began, started)
+    except BaseException as error:
+        (run_dir / "error.txt").write_text(traceback.format_exc())
+        if not isinstance(error, Exception):  # KeyboardInterrupt, SystemExit: stop
+            raise
+        return {
+            "method": run.method,
+            "task": run.task,
+            "seed": run.seed,
+            "config_hash": run.config_hash,
+            "status": "failed",
+            "error": f"{type(error).__name__}: {error}",
+            "wall_seconds": time.perf_counter() - began,
+        }
+    finally:
+        th.set_num_threads(threads)
+
+
+def _train_and_evaluate(run: RunSpec, run_dir: Path, began: float, started: str) -> dict[str, Any]:
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+
+    from sb3_comm import CommDDPG, make_comm_vec_env
+    from sb3_comm.callbacks import TeamEvalCallback
+    from sb3_comm.common.hyperparams import coerce_value
+    from sb3_comm.evaluation import evaluate_team
+
+    settings = {key: coerce_value(key, value) for key, value in run.hyperparams.items()}
+    n_envs = int(settings.pop("n_envs"))
+    (run_dir / "config.yml").write_text(
+        yaml.safe_dump({run.task: {"policy": run.method, "n_timesteps": run.timesteps, **run.hyperparams}})
+    )
+    model = CommDDPG(
+        run.method,
+        make_comm_vec_env(run.task, n_envs=n_envs, seed=run.seed),
+        tensorboard_log=str(run_dir / "tb"),
+        seed=run.seed,
+        device="cpu",
+        **settings,
+    )
+    evaluator = TeamEvalCallback(
+        run.task,
+        eval_freq=run.eval_freq,
+        n_episodes=run.eval_episodes,
+        seed=EVAL_SEEDS["curve"],
+        log_path=run_dir / "evaluations.json",
+    )
+    checkpoints = CheckpointCallback(
+        max(run.save_freq // n_envs, 1), str(run_dir / "checkpoints"), name_prefix="model"
+    )
+    learn_began = time.perf_counter()
+    model.learn(run.timesteps, callback=CallbackList([evaluator, checkpoints]), log_interval=100 * n_envs)
+    train_seconds = time.perf_counter() - learn_began - evaluator.eval_seconds
+    model.save(run_dir / "model.zip")
+    if not evaluator.history or evaluator.history[-1]["timesteps"] != model.num_timesteps:
+        evaluator.evaluate()  # the curve ends where training ended
+    final = {
+        ablation: evaluate_team(
+            model, run.task, n_episodes=run.eval_episodes, seed=EVAL_SEEDS["final"], ablation=ablation
+        ).summary()
+        for ablation in ABLATIONS
+    }
+    communication, communication_error = _communication(model, run, run_dir)
+    result = {
+        "method": run.method,
+        "task": run.task,
+        "seed": run.seed,
+        "config_hash": run.config_hash,
+        "status": "done",
+        "timesteps": int(model.num_timesteps),
+        "budget": run.timesteps,
+        "n_envs": n_envs,
+        "updates": int(getattr(model, "_n_updates", 0)),
+        "train_seconds": train_seconds,
+        "eval_seconds": evaluator.eval_seconds,
+        "wall_seconds": time.perf_counter() - began,
+        "started": started,
+        "finished": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+        "hyperparams": run.hyperparams,
+        "eval": {
+            "freq": run.eval_freq,
+            "episodes": run.eval_episodes,
+            "analysis_episodes": run.analysis_episodes,
+            "seeds": EVAL_SEEDS,
+        },
+        "curve": evaluator.history,
+        "final": final,
+        "communication": communication,
+    }
+    if communication_error is not None:
+        result["communication_error"] = communication_error
+    _write_json(run_dir / "result.json", result)  # last: its presence means the run is done
+    return result
+
+
+def _parse_selector(selector: str) -> tuple[str, str, str]:
+    parts = selector.split("/")
+    if len(parts) != 3 or not all(parts):
+        raise ExperimentSpecError(
+            f"--only {selector!r} must look like METHOD/TASK/SEED "
+            "(e.g. GSN/BlindSoccer-v0/0; '*' matches anything)"
+        )
+    return parts[0].upper(), parts[1], parts[2]
+
+
+def select_runs(runs: list[RunSpec], only: Iterable[str] | None) -> list[RunSpec]:
+    """The runs that match one of the ``METHOD/TASK/SEED`` selectors (``*`` matches anything).
+
+    :raises ExperimentSpecError: a selector that matches no run of the experiment.
+    """
+    if not only:
+        return list(runs)
+    chosen: dict[str, RunSpec] = {}
+    for selector in only:
+        method, task, seed = _parse_selector(selector)
+        matches = [
+            run
+            for run in runs
+            if method in ("*", run.method) and task in ("*", run.task) and seed in ("*", str(run.seed))
+        ]
+        if not matches:
+            raise ExperimentSpecError(
+                f"--only {selector!r} matches no run of the experiment; its runs: {[r.key for r in runs]}"
+            )
+        chosen.update((run.key, run) for run in matches)
+    return [run for run in runs if run.key in chosen]
+
+
+def _failed_before(run: RunSpec, out: Path) -> bool:
+    run_dir = out / run.relative_dir
+    return (run_dir / "error.txt").exists() and not (run_dir / "result.json").exists()
+
+
+def _local_results(
+    jobs: list[tuple[RunSpec, Path]], workers: int
+) -> Iterator[tuple[RunSpec, dict[str, Any]]]:
+    """Each run in its own spawned process, at most ``workers`` at a time (0: in this process)."""
+    if workers == 0:
+        for run, run_dir in jobs:
+            yield run, run_one(run, run_dir)
+        return
+    import multiprocessing as mp
+
+    extra = {"max_tasks_per_child": 1} if sys.version_info >= (3, 11) else {}
+    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), **extra) as pool:
+        futures = {pool.submit(run_one, run, run_dir): run for run, run_dir in jobs}
+        for future in as_completed(futures):
+            run = futures[future]
+            try:
+                yield run, future.result()
+            except Exception as error:  # the worker process died (out of memory, killed)
+                yield run, _crashed(run, jobs, error)
+
+
+def _crashed(run: RunSpec, jobs: list[tuple[RunSpec, Path]], error: BaseException) -> dict[str, Any]:
+    run_dir = dict((r.key, d) for r, d in jobs)[run.key]
+    run_dir.mkdir(parents=True, exist_ok=True)
+    text = "".join(traceback.format_exception(error))
+    (run_dir / "error.txt").write_text(f"The process of this run ended abnormally:\n{text}")
+    return {"status": "failed", "error": f"{type(error).__name__}: {error}"}
+
+
+def _import_ray() -> Any:
+    try:
+        import ray
+    except ImportError as error:
+        raise ImportError(RAY_MISSING) from error
+    return ray
+
+
+@contextmanager
+def _ray_session(address: str, workers: int | None) -> Iterator[Any]:
+    """Connect to (or start) Ray; shut down on exit what this call started.
+
+    ``address`` is ``auto`` (the running cluster), ``host:port`` or ``ray://host:port``, or
+    ``local`` (start a Ray instance in this process with ``workers`` CPUs).
+    """
+    ray = _import_ray()
+    started_here = not ray.is_initialized()
+    if started_here:
+        options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
+        if address == "local" and workers:
+            options["num_cpus"] = workers
+        try:
+            ray.init(address=address, **options)
+        except Exception as error:
+            raise ConnectionError(
+                f"Cannot connect to Ray at {address!r}: {error}. Give 'auto' (the cluster started with "
+                "'ray start' on this machine), 'host:port' of the head node, or 'local'. A cluster with "
+                "token authentication (the default of 'ray start' in recent Ray) also needs "
+                "RAY_AUTH_MODE=token in this shell."
+            ) from error
+    try:
+        yield ray
+    finally:
+        if started_here:
+            ray.shutdown()
+
+
+def _ray_results(ray: Any, jobs: list[tuple[RunSpec, Path]]) -> Iterator[tuple[RunSpec, dict[str, Any]]]:
+    """One ``ray.remote(num_cpus=1)`` task per run, as many at a time as the cluster has CPUs.
+
+    The experiment folder must be on a file system that every node sees, and sb3-comm installed
+    on every node.
+    """
+    # max_calls=1: a fresh worker process per run, as in the local pool.
+    remote = ray.remote(num_cpus=1, max_calls=1)(run_one)
+    pending = {remote.remote(run, str(run_dir)): (run, run_dir) for run, run_dir in jobs}
+    while pending:
+        ready, _ = ray.wait(list(pending), num_returns=1)
+        run, run_dir = pending.pop(ready[0])
+        try:
+            yield run, ray.get(ready[0])
+        except Exception as error:  # the worker died
+            yield run, _crashed(run, [(run, run_dir)], error)
+
+
+def _describe(result: dict[str, Any]) -> str:
+    final = result.get("final") or {}
+    text = (
+        f"{result.get('timesteps', 0):,} steps in {result.get('wall_seconds', 0.0):.0f} s"
+        f" (training {result.get('train_seconds', 0.0):.0f} s)"
+    )
+    if final:
+        text += (
+            f"; return {final['none']['mean_return']:.3f}, zeroed messages "
+            f"{final['zero']['mean_return']:.3f}, shuffled {final['shuffle']['mean_return']:.3f}"
+        )
+    if result.get("communication") is None:
+        error = (result.get("communication_error") or "").strip().splitlines()
+        text += f"; communication analysis failed: {error[-1] if error else 'unknown error'}"
+    return text
+
+
+def run_experiment(
+    spec: ExperimentSpec,
+    out: str | Path,
+    workers: int | None = None,
+    ray_address: str | None = None,
+    only: Iterable[str] | None = None,
+    rerun_failed: bool = False,
+    command: str | None = None,
+    echo: Callable[[str], None] = print,
+) -> dict[str, Any]:
+    """Run every run of ``spec`` that has no ``result.json`` in ``out`` yet.
+
+    :param spec: a checked experiment (:func:`~sb3_comm.experiments.load_experiment`).
+    :param out: experiment folder; receives ``experiment.yml``, ``runs/`` and ``summary.json``.
+    :param workers: runs at a time on this machine (default: the usable cores); 0 runs them one
+        after another in this process (debugging). With ``ray_address``: the CPUs of a ``local``
+        Ray instance.
+    :param ray_address: run on Ray instead: ``auto``, ``host:port`` or ``local``.
+    :param only: ``METHOD/TASK/SEED`` selectors (``*`` matches anything); the rest are not run.
+    :param rerun_failed: run only the runs whose last attempt failed (``error.txt``, no result).
+    :param command: the command line to record (default: ``sys.argv``).
+    :param echo: where progress lines go.
+    :return: the summary (also written to ``out/summary.json``): one row per run of the
+        experiment with status ``done``, ``failed``, ``skipped`` (finished earlier) or
+        ``not selected``, plus timings and the machine.
+    """
+    began = time.perf_counter()
+    if ray_address:
+        _import_ray()  # fail before anything is written
+    out = Path(out).resolve()
+    runs = spec.runs()
+    selected = select_runs(runs, only)
+    if rerun_failed:
+        selected = [run for run in selected if _failed_before(run, out)]
+    selected_keys = {run.key for run in selected}
+    rows: dict[str, dict[str, Any]] = {}
+    todo: list[RunSpec] = []
+    for run in runs:
+        row = {"key": run.key, "method": run.method, "task": run.task, "seed": run.seed,
+               "config_hash": run.config_hash, "dir": str(run.relative_dir)}  # fmt: skip
+        result_path = out / run.relative_dir / "result.json"
+        if result_path.exists():
+            rows[run.key] = {**row, **_timing(json.loads(result_path.read_text())), "status": "skipped"}
+        elif run.key in selected_keys:
+            rows[run.key] = {**row, "status": "pending"}
+            todo.append(run)
+        else:
+            rows[run.key] = {**row, "status": "not selected"}
+    backend = f"Ray ({ray_address})" if ray_address else ("this process" if workers == 0 else "processes")
+    n_workers = default_workers() if workers is None else workers
+    if not ray_address and n_workers:
+        n_workers = max(1, min(n_workers, len(todo) or 1))
+
+    with ExitStack() as stack:
+        ray = stack.enter_context(_ray_session(ray_address, workers)) if ray_address and todo else None
+        if ray is not None:  # as many runs at a time as the cluster has CPUs
+            n_workers = int(ray.cluster_resources().get("CPU", 0))
+        out.mkdir(parents=True, exist_ok=True)
+        _write_spec(spec, out)
+        skipped = [key for key, row in rows.items() if row["status"] == "skipped"]
+        echo(
+            f"Experiment {spec.name!r}{' (quick)' if spec.is_quick else ''}: {len(runs)} runs, "
+            f"{len(todo)} to run, {len(skipped)} already done (skipped), in {out}"
+        )
+        for key in skipped:
+            echo(f"  skipped {key}: result.json exists")
+        if todo:
+            where = "in this process" if workers == 0 else f"in {n_workers} process(es) at a time"
+            echo(f"Running {len(todo)} run(s) " + (f"on {backend}, {n_workers} CPUs" if ray else where))
+        # Longest runs first, so that the last ones to finish are short.
+        jobs = [(run, out / run.relative_dir) for run in sorted(todo, key=lambda r: -r.timesteps)]
+        results = _ray_results(ray, jobs) if ray is not None else _local_results(jobs, n_workers)
+        for done, (run, result) in enumerate(results, start=1):
+            status = "done" if result.get("status") in ("done", "skipped") else "failed"
+            rows[run.key].update(status=status, **_timing(result))
+            if status == "done":
+                echo(f"[{done}/{len(todo)}] done    {run.key}: {_describe(result)}")
+            else:
+                rows[run.key]["error"] = result.get("error")
+                echo(
+                    f"[{done}/{len(todo)}] FAILED  {run.key}: {result.get('error')} "
+                    f"(traceback: {out / run.relative_dir / 'error.txt'})"
+                )
+    summary = _summary(spec, out, rows, began, n_workers, backend, command)
+    _write_json(out / "summary.json", summary)
+    _print_summary(summary, spec, out, echo)
+    return summary
+
+
+def _timing(result: dict[str, Any]) -> dict[str, Any]:
+    keys = ("timesteps", "train_seconds", "wall_seconds")
+    return {key: result[key] for key in keys if key in result}
+
+
+def _write_spec(spec: ExperimentSpec, out: Path) -> None:
+    """``experiment.yml``; a different earlier one is kept as ``experiment.<time>.yml``."""
+    text = yaml.safe_dump(spec.to_dict(), sort_keys=False)
+    path = out / "experiment.yml"
+    if path.exists() and path.read_text() != text:
+        stamp = dt.datetime.fromtimestamp(path.stat().st_mtime).strftime("%Y%m%d-%H%M%S")
+        target, k = out / f"experiment.{stamp}.yml", 1
+        while target.exists():
+            target, k = out / f"experiment.{stamp}-{k}.yml", k + 1
+        path.rename(target)
+    path.write_text(text)
+
+
+def _summary(
+    spec: ExperimentSpec,
+    out: Path,
+    rows: dict[str, dict[str, Any]],
+    began: float,
+    workers: int,
+    backend: str,
+    command: str | None,
+) -> dict[str, Any]:
+    table = list(rows.values())
+    counts = {status: sum(row["status"] == status for row in table)
+              for status in ("done", "failed", "skipped", "not selected")}  # fmt: skip
+    return {
+        "name": spec.name,
+        "quick": spec.is_quick,
+        "out": str(out),
+        "command": command or " ".join(shlex.quote(arg) for arg in sys.argv),
+        "finished": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+        "wall_seconds": time.perf_counter() - began,
+        "backend": backend,
+        "workers": workers,
+        "machine": machine_info(),
+        "counts": counts,
+        "env_steps": sum(row.get("timesteps", 0) for row in table if row["status"] == "done"),
+        "runs": table,
+    }
+
+
+def _print_summary(
+    summary: dict[str, Any], spec: ExperimentSpec, out: Path, echo: Callable[[str], None]
+) -> None:
+    counts = summary["counts"]
+    echo(
+        f"Finished in {summary['wall_seconds']:.0f} s: {counts['done']} done, {counts['failed']} failed, "
+        f"{counts['skipped']} skipped"
+        + (f", {counts['not selected']} not selected" if counts["not selected"] else "")
+    )
+    echo(f"Summary: {out / 'summary.json'}")
+    failed = [row for row in summary["runs"] if row["status"] == "failed"]
+    if failed:
+        source = (
+            spec.source if spec.source and Path(spec.source).parent != Path(__file__).parent else spec.name
+        )
+        quick = " --quick" if spec.is_quick else ""
+        base = f"sb3-comm experiment {shlex.quote(str(source))}{quick} --out {shlex.quote(str(out))}"
+        echo("Failed runs (traceback in error.txt):")
+        for row in failed:
+            echo(f"  {row['key']}: {out / row['dir'] / 'error.txt'}")
+        echo(f"Re-run one alone:     {base} --only {failed[0]['key']}")
+        echo(f"Re-run all that failed: {base} --rerun-failed")
