@@ -53,13 +53,17 @@ _METRICS = ("cic", "speaker_consistency", "instantaneous_coordination", "probe_a
 
 
 # --------------------------------------------------------------------------------- loading --
-def _read_summary(experiment_dir: Path) -> dict[Path, dict[str, Any]]:
-    """Runner's ``summary.json`` entries by run folder (whatever shape the table has)."""
-    path = experiment_dir / "summary.json"
+def _load_summary(experiment_dir: Path) -> Any:
+    """The runner's ``summary.json`` as parsed JSON, or ``{}`` when it is missing or corrupt."""
     try:
-        data = json.loads(path.read_text())
+        return json.loads((experiment_dir / "summary.json").read_text())
     except (OSError, ValueError):
         return {}
+
+
+def _read_summary(experiment_dir: Path) -> dict[Path, dict[str, Any]]:
+    """Runner's ``summary.json`` entries by run folder (whatever shape the table has)."""
+    data = _load_summary(experiment_dir)
     rows = data.get("runs", data) if isinstance(data, dict) else data
     if isinstance(rows, dict):
         rows = list(rows.values())
@@ -74,10 +78,7 @@ def _read_summary(experiment_dir: Path) -> dict[Path, dict[str, Any]]:
 
 def _provenance(experiment_dir: Path, runs: list[dict[str, Any]]) -> dict[str, Any]:
     """How the runs were made: the runner's command, machine and timing (from ``summary.json``)."""
-    try:
-        data = json.loads((experiment_dir / "summary.json").read_text())
-    except (OSError, ValueError):
-        data = {}
+    data = _load_summary(experiment_dir)
     data = data if isinstance(data, dict) else {}
     keys = ("command", "finished", "wall_seconds", "backend", "workers", "machine", "env_steps")
     out = {key: data.get(key) for key in keys}
