@@ -16,7 +16,6 @@ import argparse
 import json
 import multiprocessing as mp
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
@@ -32,77 +31,32 @@ def oracle_returns(env_id: str) -> tuple[float, float]:
     return data["oracle"]["team_return"]["mean"], data["random"]["team_return"]["mean"]
 
 
-class TimeBudget:
-    """Stops training after ``seconds`` of wall-clock time (an SB3 callback, built lazily)."""
-
-    @staticmethod
-    def make(seconds: float):
-        from stable_baselines3.common.callbacks import BaseCallback
-
-        class _Budget(BaseCallback):
-            def _on_training_start(self) -> None:
-                self.deadline = time.perf_counter() + seconds
-
-            def _on_step(self) -> bool:
-                return time.perf_counter() < self.deadline
-
-        return _Budget()
-
-
 def run_one(job: dict[str, Any]) -> dict[str, Any]:
-    """Train and evaluate one (method, seed); returns a JSON-friendly record."""
+    """Train and evaluate one (method, seed) with :func:`sb3_comm.training.train_run`; returns its
+    :class:`~sb3_comm.results.RunResult` as JSON."""
     import torch as th
-    from stable_baselines3.common.callbacks import CallbackList
 
-    from sb3_comm import CommDDPG, make_comm_vec_env
-    from sb3_comm.callbacks import TeamEvalCallback
-    from sb3_comm.config import load_hyperparams
-    from sb3_comm.evaluation import evaluate_team
+    from sb3_comm.callbacks import TimeBudgetCallback
+    from sb3_comm.config import RunConfig
+    from sb3_comm.training import EvalSettings, train_run
 
     th.set_num_threads(1)
     env_id, method, seed = job["env"], job["method"], job["seed"]
-    settings = load_hyperparams(method, env_id)
-    settings.update(job["overrides"])
-    n_envs = int(settings.pop("n_envs"))
-    timesteps = int(job["timesteps"] or settings.pop("n_timesteps"))
-    settings.pop("n_timesteps", None)
-    settings.pop("policy")
-    model = CommDDPG(
-        method, make_comm_vec_env(env_id, n_envs=n_envs, seed=seed), seed=seed, device="cpu", **settings
+    config = RunConfig.load(method, env_id, seed=seed, overrides=job["overrides"])
+    result = train_run(
+        config,
+        Path(job["save_dir"]) / f"{env_id}_{method}_seed{seed}",
+        evaluation=EvalSettings(
+            freq=job["eval_freq"],
+            episodes=100,
+            curve_seed=10_000,
+            final_seed=20_000,
+            target_return=job["target"],
+        ),
+        save_freq=0,
+        callbacks=[TimeBudgetCallback(job["time_budget"])],
     )
-    curve_path = Path(job["save_dir"] or "runs/benchmarks") / f"{env_id}_{method}_seed{seed}_curve.json"
-    evaluator = TeamEvalCallback(
-        env_id,
-        eval_freq=job["eval_freq"],
-        n_episodes=100,
-        target_return=job["target"],
-        seed=10_000,
-        log_path=curve_path,
-    )
-    began = time.perf_counter()
-    model.learn(timesteps, callback=CallbackList([evaluator, TimeBudget.make(job["time_budget"])]))
-    train_seconds = time.perf_counter() - began - evaluator.eval_seconds
-    final = {
-        ablation: evaluate_team(model, env_id, n_episodes=100, seed=20_000, ablation=ablation).summary()
-        for ablation in ("none", "zero", "shuffle")
-    }
-    if job["save_dir"]:
-        path = Path(job["save_dir"]) / f"{env_id}_{method}_seed{seed}.zip"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        model.save(path)
-    return {
-        "method": method,
-        "seed": seed,
-        "n_envs": n_envs,
-        "timesteps": model.num_timesteps,
-        "updates": model._n_updates,
-        "train_seconds": train_seconds,
-        "time_to_target_seconds": evaluator.time_to_target,
-        "steps_to_target": evaluator.steps_to_target,
-        "final": final,
-        "curve": evaluator.history,
-        "settings": {k: (v if not callable(v) else repr(v)) for k, v in settings.items()},
-    }
+    return result.to_json()
 
 
 def main() -> None:
@@ -118,7 +72,7 @@ def main() -> None:
     parser.add_argument("--target-fraction", type=float, default=0.9)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--params", nargs="*", default=[], help="hyperparameter overrides key=value")
-    parser.add_argument("--save-dir", default="runs/benchmarks", help="where the trained models go")
+    parser.add_argument("--save-dir", default="runs/benchmarks", help="where the run folders go")
     parser.add_argument("--name", default=None, help="result file stem")
     args = parser.parse_args()
 
@@ -126,16 +80,18 @@ def main() -> None:
 
     oracle, random_return = oracle_returns(args.env)
     target = args.target_fraction * oracle
+    overrides = parse_overrides(args.params)
+    if args.timesteps is not None:
+        overrides["n_timesteps"] = args.timesteps
     jobs = [
         {
             "env": args.env,
             "method": method.upper(),
             "seed": seed,
-            "timesteps": args.timesteps,
             "time_budget": args.time_budget,
             "eval_freq": args.eval_freq,
             "target": target,
-            "overrides": parse_overrides(args.params),
+            "overrides": overrides,
             "save_dir": args.save_dir,
         }
         for method in args.methods

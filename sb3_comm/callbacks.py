@@ -1,8 +1,8 @@
-"""Callbacks: periodic team evaluation with a learning-curve record and an optional target."""
+"""Callbacks: periodic team evaluation with a learning-curve record and an optional target, and a
+wall-clock time budget."""
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 from typing import Any
@@ -10,8 +10,9 @@ from typing import Any
 from stable_baselines3.common.callbacks import BaseCallback
 
 from sb3_comm.evaluation import evaluate_team
+from sb3_comm.results import write_json
 
-__all__ = ["TeamEvalCallback"]
+__all__ = ["TeamEvalCallback", "TimeBudgetCallback"]
 
 
 class TeamEvalCallback(BaseCallback):
@@ -93,7 +94,7 @@ class TeamEvalCallback(BaseCallback):
             self.steps_to_target = self.num_timesteps
         if self.log_path is not None:
             self.log_path.parent.mkdir(parents=True, exist_ok=True)
-            self.log_path.write_text(json.dumps(self.history, indent=2))
+            write_json(self.log_path, self.history)
         return point
 
     def _on_step(self) -> bool:
@@ -102,3 +103,23 @@ class TeamEvalCallback(BaseCallback):
         self._next_eval += self.eval_freq
         self.evaluate()
         return not (self.stop_at_target and self.time_to_target is not None)
+
+
+class TimeBudgetCallback(BaseCallback):
+    """Stop training after ``seconds`` of wall-clock time.
+
+    :param seconds: the budget, counted from the start of ``learn``.
+    """
+
+    def __init__(self, seconds: float, verbose: int = 0) -> None:
+        super().__init__(verbose)
+        if not seconds > 0:
+            raise ValueError(f"The time budget must be a positive number of seconds, got {seconds}")
+        self.seconds = seconds
+        self._deadline = 0.0
+
+    def _on_training_start(self) -> None:
+        self._deadline = time.perf_counter() + self.seconds
+
+    def _on_step(self) -> bool:
+        return time.perf_counter() < self._deadline

@@ -9,8 +9,9 @@
     sb3-comm report runs/experiments/paper                         # the report of an experiment folder
 
 ``train`` reads the packaged hyperparameters of the method (``zoo_configs/<method>.yml``), trains
-with a progress bar, evaluates periodically, and writes TensorBoard logs, the learning curve and
-the model into a fresh run folder (an existing folder is never overwritten).
+with a progress bar, evaluates periodically, and writes TensorBoard logs, the learning curve, the
+model and the run's record (``result.json``) into a fresh run folder (an existing folder is never
+overwritten); it is a thin caller of :func:`sb3_comm.training.train_run`.
 """
 
 from __future__ import annotations
@@ -18,25 +19,25 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from sb3_comm.common.hyperparams import coerce_value, to_yaml_value
+from sb3_comm.common.hyperparams import canonical_value
 
 __all__ = ["main", "parse_overrides"]
 
 
 def parse_overrides(items: list[str] | None) -> dict[str, Any]:
-    """``key=value`` pairs (values parsed as YAML: numbers, lists, mappings) to a dict."""
+    """``key=value`` pairs to a dict of text-form values (parsed as YAML: numbers, lists, mappings;
+    see :mod:`sb3_comm.common.hyperparams`)."""
     result: dict[str, Any] = {}
     for item in items or []:
         key, sep, value = item.partition("=")
         if not sep or not key:
             raise ValueError(f"Hyperparameter override {item!r} must look like key=value")
-        result[key.strip()] = coerce_value(key.strip(), yaml.safe_load(value))
+        result[key.strip()] = canonical_value(key.strip(), yaml.safe_load(value))
     return result
 
 
@@ -50,80 +51,38 @@ def _fresh_dir(base: Path) -> Path:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
+    from sb3_comm.config import RunConfig
+    from sb3_comm.training import EvalSettings, train_run
 
-    from sb3_comm import CommDDPG, make_comm_vec_env
-    from sb3_comm.callbacks import TeamEvalCallback
-    from sb3_comm.config import accepted_keys, load_hyperparams
-
-    settings = load_hyperparams(args.method, args.env, args.conf)
     overrides = parse_overrides(args.params)
-    unknown = sorted(set(overrides) - set(accepted_keys()))
-    if unknown:
-        raise ValueError(f"Unknown hyperparameter(s) {unknown}; accepted keys: {accepted_keys()}")
-    settings.update(overrides)
-    n_envs = int(args.n_envs or settings.pop("n_envs"))
-    settings.pop("n_envs", None)
-    timesteps = int(args.timesteps or settings.pop("n_timesteps"))
-    settings.pop("n_timesteps", None)
-    method = settings.pop("policy")
-
-    run_dir = _fresh_dir(Path(args.log_folder) / args.env / f"{method}_seed{args.seed}")
-    (run_dir / "config.yml").write_text(
-        yaml.safe_dump(
-            {
-                args.env: {
-                    "policy": method,
-                    "n_envs": n_envs,
-                    "n_timesteps": timesteps,
-                    **{key: to_yaml_value(value) for key, value in settings.items()},
-                }
-            }
-        )
-    )
-    env = make_comm_vec_env(args.env, n_envs=n_envs, seed=args.seed)
-    model = CommDDPG(
-        method,
-        env,
-        tensorboard_log=str(run_dir / "tb"),
-        seed=args.seed,
-        device=args.device,
-        verbose=args.verbose,
-        **settings,
-    )
-    evaluator = TeamEvalCallback(
-        args.env,
-        eval_freq=args.eval_freq,
-        n_episodes=args.eval_episodes,
-        log_path=run_dir / "evaluations.json",
-        verbose=1,
-    )
-    checkpoints = CheckpointCallback(
-        max(args.save_freq // n_envs, 1), str(run_dir / "checkpoints"), name_prefix="model"
-    )
+    if args.n_envs is not None:
+        overrides["n_envs"] = args.n_envs
+    if args.timesteps is not None:
+        overrides["n_timesteps"] = args.timesteps
+    config = RunConfig.load(args.method, args.env, seed=args.seed, path=args.conf, overrides=overrides)
+    run_dir = _fresh_dir(Path(args.log_folder) / args.env / f"{config.method}_seed{config.seed}")
     print(
-        f"Training CommDDPG {method} on {args.env}: {timesteps} steps, "
-        f"{n_envs} parallel games, seed {args.seed}"
+        f"Training CommDDPG {config.method} on {args.env}: {config.n_timesteps} steps, "
+        f"{config.n_envs} parallel games, seed {config.seed}"
     )
     print(f"Run folder: {run_dir}")
-    began = time.perf_counter()
-    try:
-        model.learn(
-            timesteps,
-            callback=CallbackList([evaluator, checkpoints]),
-            progress_bar=not args.no_progress_bar,
-            log_interval=100 * n_envs,
-        )
-    finally:
-        model.save(run_dir / "model.zip")
-    evaluated_now = evaluator.history and evaluator.history[-1]["timesteps"] == model.num_timesteps
-    final = evaluator.history[-1] if evaluated_now else evaluator.evaluate()
+    result = train_run(
+        config,
+        run_dir,
+        evaluation=EvalSettings(freq=args.eval_freq, episodes=args.eval_episodes),
+        save_freq=args.save_freq,
+        device=args.device,
+        verbose=args.verbose,
+        eval_verbose=1,
+        progress_bar=not args.no_progress_bar,
+    )
     print(
-        f"Done in {time.perf_counter() - began:.0f} s. Final evaluation ({args.eval_episodes} episodes): "
-        f"mean return {final['mean_return']:.4f}"
+        f"Done in {result.wall_seconds:.0f} s. Final evaluation ({args.eval_episodes} episodes): "
+        f"mean return {result.curve[-1]['mean_return']:.4f}"
     )
     print(f"Model:       {run_dir / 'model.zip'}")
     print(f"Curve:       {run_dir / 'evaluations.json'}")
+    print(f"Result:      {run_dir / 'result.json'}")
     print(f"TensorBoard: tensorboard --logdir {run_dir / 'tb'}")
     return 0
 

@@ -1,22 +1,44 @@
-"""rl-zoo-style hyperparameter files: find, read and check them before any training starts.
+"""Run configurations: rl-zoo-style hyperparameter files, read and checked once.
 
-A file maps environment ids to CommDDPG arguments plus rl-zoo3's ``n_envs``, ``n_timesteps`` and
-``policy`` (the method). The packaged files live in the repository's ``zoo_configs/`` folder,
-one per method (``gsn.yml``, ``rial.yml``, ``tcg.yml``, ``none.yml``).
+A hyperparameter file maps environment ids to CommDDPG arguments plus rl-zoo3's ``n_envs``,
+``n_timesteps`` and ``policy`` (the method). The packaged files live in the repository's
+``zoo_configs/`` folder, one per method (``gsn.yml``, ``rial.yml``, ``tcg.yml``, ``none.yml``).
+
+:class:`RunConfig` is what one training run is made of: method, task, seed, parallel games,
+budget and the algorithm's hyperparameters. It is parsed, coerced and validated once, from a
+file's entry plus overrides, and keeps the hyperparameters in their text form
+(:mod:`sb3_comm.common.hyperparams`): that form is what ``config.yml`` holds and what the
+experiment runner fingerprints, and :meth:`RunConfig.algorithm_kwargs` turns it into the plain
+Python values the algorithm takes.
+
+>>> config = RunConfig.load("GSN", "BlindSoccer-v0", seed=1, overrides={"batch_size": 32})
+>>> config.n_envs, config.hyperparams["batch_size"], config.hyperparams["learning_rate"]
+(16, 32, 'lin_0.001')
 """
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from sb3_comm.comm_ddpg import METHODS, CommDDPG
-from sb3_comm.common.hyperparams import coerce_value
+from sb3_comm.common.hyperparams import algorithm_kwargs, canonical_value
 
-__all__ = ["CONFIG_DIR", "ZOO_KEYS", "accepted_keys", "config_path", "load_hyperparams"]
+__all__ = [
+    "CONFIG_DIR",
+    "ZOO_KEYS",
+    "RunConfig",
+    "accepted_keys",
+    "check_keys",
+    "config_path",
+    "load_hyperparams",
+    "read_entry",
+]
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
 CONFIG_DIR = next(
@@ -27,6 +49,9 @@ CONFIG_DIR = next(
 
 ZOO_KEYS = ("policy", "n_envs", "n_timesteps")
 """rl-zoo3 keys that are not CommDDPG arguments."""
+
+DEFAULT_N_ENVS = 1
+DEFAULT_N_TIMESTEPS = 100_000
 
 _NOT_CONFIGURABLE = {
     "self",
@@ -40,18 +65,44 @@ _NOT_CONFIGURABLE = {
 }
 
 
+def _methods() -> tuple[str, ...]:
+    from sb3_comm.comm_ddpg import METHODS
+
+    return tuple(METHODS)
+
+
 def accepted_keys() -> list[str]:
-    """Every key a hyperparameter entry may have."""
+    """Every key a hyperparameter entry may have: rl-zoo3's keys and CommDDPG's arguments."""
+    from sb3_comm.comm_ddpg import CommDDPG
+
     params = inspect.signature(CommDDPG.__init__).parameters
     return sorted({*ZOO_KEYS, *(p for p in params if p not in _NOT_CONFIGURABLE)})
 
 
+def check_keys(settings: Mapping[str, Any], where: str, exclude: tuple[str, ...] = ()) -> None:
+    """Raise if ``settings`` has a key that is not a hyperparameter (the one check of keys).
+
+    :param settings: an entry of a file, or overrides.
+    :param where: what the settings are, for the message (e.g. ``"gsn.yml: 'BlindSoccer-v0'"``).
+    :param exclude: accepted keys that may not be set here.
+    :raises ValueError: naming the unknown keys and every accepted one.
+    """
+    accepted = [key for key in accepted_keys() if key not in exclude]
+    unknown = sorted(str(key) for key in set(settings) - set(accepted))
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {unknown}; accepted keys: {accepted}")
+
+
+def _check_method(method: str) -> str:
+    method = method.upper()
+    if method not in _methods():
+        raise ValueError(f"Unknown communication method {method!r}; accepted: {list(_methods())}")
+    return method
+
+
 def config_path(method: str) -> Path:
     """The packaged file of a method (e.g. ``zoo_configs/gsn.yml``)."""
-    method = method.upper()
-    if method not in METHODS:
-        raise ValueError(f"Unknown communication method {method!r}; accepted: {list(METHODS)}")
-    return CONFIG_DIR / f"{method.lower()}.yml"
+    return CONFIG_DIR / f"{_check_method(method).lower()}.yml"
 
 
 def _read(path: Path) -> dict[str, Any]:
@@ -69,40 +120,145 @@ def _read(path: Path) -> dict[str, Any]:
     return data
 
 
-def load_hyperparams(method: str, env_id: str, path: str | Path | None = None) -> dict[str, Any]:
-    """The checked settings of ``method`` on ``env_id``.
+def read_entry(path: str | Path, env_id: str) -> dict[str, Any]:
+    """The settings of ``env_id`` in a hyperparameter file, as written (not yet checked).
 
-    :param method: ``"NONE"``, ``"RIAL"``, ``"TCG"`` or ``"GSN"``.
-    :param env_id: environment id, a key of the file.
-    :param path: a hyperparameter file (default: the packaged file of the method).
-    :return: a dict with ``policy``, ``n_envs``, ``n_timesteps`` and the CommDDPG keyword arguments.
-    :raises ValueError: unknown method, missing environment entry, unknown key, or a ``policy``
-        that contradicts ``method`` — before anything is trained.
+    :raises FileNotFoundError: no such file.
+    :raises ValueError: not YAML, not a mapping, or no entry for ``env_id``.
     """
-    method = method.upper()
-    file = Path(path) if path is not None else config_path(method)
+    file = Path(path)
     data = _read(file)
     if env_id not in data:
         raise ValueError(f"{file} has no entry for {env_id!r}; it configures: {sorted(data)}")
     entry = data[env_id]
     if not isinstance(entry, dict):
         raise ValueError(f"{file}: the entry of {env_id!r} must be a mapping of settings")
-    accepted = accepted_keys()
-    unknown = sorted(set(entry) - set(accepted))
-    if unknown:
-        raise ValueError(f"{file}: unknown key(s) {unknown} for {env_id!r}; accepted keys: {accepted}")
-    # YAML 1.1 reads 1e-3 (no dot) as a string: accept numbers written that way.
-    settings = {key: coerce_value(key, value) for key, value in entry.items()}
-    policy = str(settings.get("policy", method)).upper()
-    if policy != method:
-        raise ValueError(f"{file}: {env_id!r} is configured for method {policy}, but {method} was requested")
-    settings["policy"] = method
-    if isinstance(settings.get("policy_kwargs"), str):
-        raise ValueError(
-            f"{file}: write policy_kwargs as a YAML mapping "
-            "(e.g. 'policy_kwargs: {net_arch: [256, 256]}'), "
-            f"got the string {settings['policy_kwargs']!r}"
-        )
-    settings["n_envs"] = int(settings.get("n_envs", 1))
-    settings["n_timesteps"] = int(float(settings.get("n_timesteps", 100_000)))
-    return settings
+    return entry
+
+
+def _whole(value: Any, key: str, where: str) -> int:
+    number = canonical_value(key, value)
+    if isinstance(number, bool) or not isinstance(number, int | float) or number != int(number) or number < 1:
+        raise ValueError(f"{where}: {key} must be a whole number ≥ 1, got {value!r}")
+    return int(number)
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """One training run's configuration, checked (see the module docstring).
+
+    :param method: communication method (``"GSN"``, ``"TCG"``, ``"RIAL"``, ``"NONE"``).
+    :param task: environment id.
+    :param n_envs: parallel games.
+    :param n_timesteps: environment steps to train for.
+    :param hyperparams: CommDDPG keyword arguments in text form (``lin_0.001``, numbers, mappings).
+    :param seed: training seed.
+    :param source: the file the settings came from, if any.
+    """
+
+    method: str
+    task: str
+    n_envs: int
+    n_timesteps: int
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+    seed: int = 0
+    source: str | None = None
+
+    @classmethod
+    def from_entry(
+        cls,
+        entry: Mapping[str, Any],
+        method: str,
+        task: str,
+        seed: int = 0,
+        source: str | None = None,
+    ) -> RunConfig:
+        """Check a file's entry (rl-zoo3 keys plus CommDDPG arguments) and build the configuration.
+
+        :raises ValueError: unknown method or key, a ``policy`` that contradicts ``method``,
+            ``policy_kwargs`` that is not a mapping, a bad ``lin_`` schedule or budget.
+        """
+        method = _check_method(method)
+        where = f"{source or 'hyperparameters'}: {task!r}"
+        check_keys(entry, where)
+        settings = {str(key): canonical_value(str(key), value) for key, value in entry.items()}
+        policy = str(settings.pop("policy", method)).upper()
+        if policy != method:
+            raise ValueError(f"{where} is configured for method {policy}, but {method} was requested")
+        if "policy_kwargs" in settings and not isinstance(settings["policy_kwargs"], dict):
+            raise ValueError(
+                f"{where}: write policy_kwargs as a YAML mapping "
+                f"(e.g. 'policy_kwargs: {{net_arch: [256, 256]}}'), got {settings['policy_kwargs']!r}"
+            )
+        n_envs = _whole(settings.pop("n_envs", DEFAULT_N_ENVS), "n_envs", where)
+        n_timesteps = _whole(settings.pop("n_timesteps", DEFAULT_N_TIMESTEPS), "n_timesteps", where)
+        return cls(method, task, n_envs, n_timesteps, settings, int(seed), source)
+
+    @classmethod
+    def load(
+        cls,
+        method: str,
+        task: str,
+        seed: int = 0,
+        path: str | Path | None = None,
+        overrides: Mapping[str, Any] | None = None,
+    ) -> RunConfig:
+        """The configuration of ``method`` on ``task`` from a file (default: the packaged one).
+
+        :param method: communication method.
+        :param task: environment id, a key of the file.
+        :param seed: training seed.
+        :param path: a hyperparameter file (default: ``zoo_configs/<method>.yml``).
+        :param overrides: settings that replace the file's (``n_envs`` and ``n_timesteps`` too).
+        """
+        file = Path(path) if path is not None else config_path(method)
+        config = cls.from_entry(read_entry(file, task), method, task, seed=seed, source=str(file))
+        return config.with_overrides(overrides or {})
+
+    def with_overrides(self, overrides: Mapping[str, Any], seed: int | None = None) -> RunConfig:
+        """A copy with some settings replaced, checked like a file's entry.
+
+        :param overrides: hyperparameters, ``n_envs`` or ``n_timesteps`` (``policy`` may not change
+            the method).
+        :param seed: a new training seed (None: keep).
+        """
+        if not overrides and seed is None:
+            return self
+        merged = {**self.to_entry(), **overrides}
+        where = f"{self.source} + overrides" if self.source else "overrides"
+        config = RunConfig.from_entry(merged, self.method, self.task, self.seed, where)
+        return dataclasses.replace(config, source=self.source, seed=self.seed if seed is None else int(seed))
+
+    def to_entry(self) -> dict[str, Any]:
+        """The entry as an rl-zoo3 file holds it: ``policy``, ``n_envs``, ``n_timesteps`` and the
+        hyperparameters in text form."""
+        return {
+            "policy": self.method,
+            "n_envs": self.n_envs,
+            "n_timesteps": self.n_timesteps,
+            **self.hyperparams,
+        }
+
+    def to_yaml(self) -> str:
+        """``config.yml`` of a run: ``{task: entry}``, a file that :meth:`load` reads back."""
+        return yaml.safe_dump({self.task: self.to_entry()})
+
+    def algorithm_kwargs(self) -> dict[str, Any]:
+        """The hyperparameters as CommDDPG keyword arguments (schedules as callables)."""
+        return algorithm_kwargs(self.hyperparams)
+
+
+def load_hyperparams(method: str, env_id: str, path: str | Path | None = None) -> dict[str, Any]:
+    """The checked settings of ``method`` on ``env_id`` as Python values.
+
+    :return: ``policy``, ``n_envs``, ``n_timesteps`` and the CommDDPG keyword arguments
+        (``lin_`` learning rates as schedules), ready for ``CommDDPG(**...)`` once the three
+        rl-zoo3 keys are taken out. :meth:`RunConfig.load` gives the same as a record.
+    """
+    config = RunConfig.load(method, env_id, path=path)
+    return {
+        "policy": config.method,
+        "n_envs": config.n_envs,
+        "n_timesteps": config.n_timesteps,
+        **config.algorithm_kwargs(),
+    }

@@ -27,15 +27,44 @@ import random
 import runpy
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 from sb3_comm.comm_ddpg import METHODS, CommDDPG, HybridDDPG
-from sb3_comm.config import CONFIG_DIR, accepted_keys, config_path, load_hyperparams
+from sb3_comm.common.hyperparams import canonical_value, python_value
+from sb3_comm.config import CONFIG_DIR, RunConfig, accepted_keys, check_keys, config_path, read_entry
 
 __all__ = ["ZOO_ALGOS", "convert_commddpg_params", "main", "register", "sample_commddpg_params"]
 
-ZOO_ALGOS: dict[str, type[CommDDPG]] = {"commddpg": CommDDPG, "hybrid_ddpg": HybridDDPG}
+
+def _from_file(kwargs: dict[str, Any]) -> dict[str, Any]:
+    """Hyperparameters as rl-zoo3 hands them over (as written in the YAML file, e.g. ``lin_1e-4``
+    for an actor learning rate) to the Python values the algorithm takes."""
+    keys = set(accepted_keys())
+    return {k: python_value(k, canonical_value(k, v)) if k in keys else v for k, v in kwargs.items()}
+
+
+class _FromFile:
+    """rl-zoo3 converts only its own schedule keys (``learning_rate``): the other values of the
+    file arrive as written, and are converted here, both when building and when loading (``-i``)."""
+
+    def __init__(self, policy: Any, env: Any, **kwargs: Any) -> None:
+        super().__init__(policy, env, **_from_file(kwargs))  # type: ignore[call-arg]
+
+    @classmethod
+    def load(cls, path: Any, env: Any = None, **kwargs: Any) -> Any:
+        """SB3's ``load``, with the extra keyword arguments converted as in ``__init__``."""
+        return super().load(path, env=env, **_from_file(kwargs))  # type: ignore[misc]
+
+
+class ZooCommDDPG(_FromFile, CommDDPG):
+    """:class:`~sb3_comm.CommDDPG` as rl-zoo3 builds and loads it."""
+
+
+class ZooHybridDDPG(_FromFile, HybridDDPG):
+    """:class:`~sb3_comm.HybridDDPG` as rl-zoo3 builds and loads it."""
+
+
+ZOO_ALGOS: dict[str, type[CommDDPG]] = {"commddpg": ZooCommDDPG, "hybrid_ddpg": ZooHybridDDPG}
 """rl-zoo3 algorithm names of this package."""
 
 COMMANDS = ("train", "enjoy", "record_video")
@@ -145,36 +174,14 @@ def prepare_args(command: str, argv: list[str]) -> list[str]:
         conf = str(CONFIG_DIR / "hybrid_ddpg.yml") if known.algo == "hybrid_ddpg" else None
         conf = conf or str(config_path(known.method or "GSN"))
         print(f"sb3-comm: hyperparameters from {conf}", file=sys.stderr)
-    entry = _entry(Path(conf), known.env)
+    entry = read_entry(conf, known.env)
     if known.algo == "commddpg":
         method = known.method or str(entry.get("policy", "GSN")).upper()
-        load_hyperparams(method, known.env, conf)  # raises on a bad method, entry or key
-    unknown = sorted(set(entry) - set(accepted_keys()))
-    if unknown:
-        raise ValueError(
-            f"{conf}: unknown key(s) {unknown} for {known.env!r}; accepted keys: {accepted_keys()}"
-        )
-    unknown = sorted(set(_parse_zoo_params(known.params)) - set(accepted_keys()))
-    if unknown:
-        raise ValueError(f"-params: unknown key(s) {unknown}; accepted keys: {accepted_keys()}")
+        RunConfig.from_entry(entry, method, known.env, source=conf)  # raises on a bad method or key
+    else:
+        check_keys(entry, f"{conf}: {known.env!r}")
+    check_keys(_parse_zoo_params(known.params), "-params")
     return [*args, "-conf", conf]
-
-
-def _entry(path: Path, env_id: str) -> dict[str, Any]:
-    """The settings of ``env_id`` in an rl-zoo3 hyperparameter file."""
-    import yaml
-
-    try:
-        data = yaml.safe_load(path.read_text())
-    except FileNotFoundError:
-        raise FileNotFoundError(f"Hyperparameter file {path} does not exist") from None
-    except yaml.YAMLError as error:
-        raise ValueError(f"Hyperparameter file {path} is not valid YAML: {error}") from error
-    entry = data.get(env_id) if isinstance(data, dict) else None
-    if not isinstance(entry, dict):
-        configured = sorted(data) if isinstance(data, dict) else []
-        raise ValueError(f"{path} has no entry for {env_id!r}; it configures: {configured}")
-    return entry
 
 
 def init_storage(url: str, attempts: int = 10) -> None:

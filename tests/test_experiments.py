@@ -101,8 +101,7 @@ BAD_EXPERIMENTS = [
     ({"n_seeds": 3}, r"unknown key\(s\) \['n_seeds'\]; accepted: \['name', 'description', 'methods'"),
     (
         {"hyperparams": {"GSN": {"learning_rat": 0.001}}},
-        r"unknown hyperparameter\(s\) in hyperparams\['GSN'\] \['learning_rat'\]; "
-        r"accepted: \[.*'learning_rate'",
+        r"hyperparams\['GSN'\]: unknown key\(s\) \['learning_rat'\]; accepted keys: \[.*'learning_rate'",
     ),
     (
         {"hyperparams": {"DIAL": {"batch_size": 8}}},

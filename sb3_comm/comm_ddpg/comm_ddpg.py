@@ -35,7 +35,6 @@ from torch.nn import functional as F
 from sb3_comm.comm_ddpg.buffers import JointReplayBuffer
 from sb3_comm.comm_ddpg.gsn import GSNTrainingCallback
 from sb3_comm.comm_ddpg.policies import METHODS, CommPolicy, GSNPolicy, NonePolicy, RIALPolicy, TCGPolicy
-from sb3_comm.common.hyperparams import coerce_value
 from sb3_comm.common.layout import CommLayout, HybridActionLayout
 from sb3_comm.common.networks import inverting_gradients
 
@@ -140,10 +139,8 @@ class CommDDPG(TD3):
             raise ValueError(f"exploration must be 'epsilon' or 'gaussian', got {exploration!r}")
         if not 0.0 <= mc_mixing <= 1.0:
             raise ValueError(f"mc_mixing (β) must lie in [0, 1], got {mc_mixing}")
-        # rl-zoo3 files write schedules as 'lin_<start>': accept them here too.
-        learning_rate = coerce_value("learning_rate", learning_rate)
-        self.actor_learning_rate = coerce_value("actor_learning_rate", actor_learning_rate)
-        self.gsn_learning_rate = coerce_value("gsn_learning_rate", gsn_learning_rate)
+        self.actor_learning_rate = actor_learning_rate
+        self.gsn_learning_rate = gsn_learning_rate
         self.exploration = exploration
         self.exploration_initial_eps = exploration_initial_eps
         self.exploration_final_eps = exploration_final_eps
@@ -257,6 +254,11 @@ class CommDDPG(TD3):
             explorable[layout.action_message_slice] = False
         self._explorable = explorable
         self._agent_returns: deque[np.ndarray] = deque(maxlen=self._stats_window_size)
+
+    @property
+    def n_updates(self) -> int:
+        """Gradient updates of the agents so far."""
+        return self._n_updates
 
     @property
     def method(self) -> str:

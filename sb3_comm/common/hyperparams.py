@@ -1,16 +1,27 @@
-"""Values as written in hyperparameter files and on the command line.
+"""Hyperparameter values as written in configuration files, and the Python values they stand for.
 
-YAML 1.1 reads ``1e-3`` (no dot) as a string; such strings are numbers. A learning rate may be
-written ``lin_1e-3`` (rl-zoo3's notation): a linear decay from 1e-3 to 0 over training.
+A value is converted in one direction only, once:
+
+* :func:`canonical_value` puts what a user wrote (in a YAML file or a ``key=value`` override)
+  into the *text form* that run configurations keep, write to ``config.yml`` and fingerprint:
+  YAML 1.1 reads ``1e-3`` (no dot) as a string, which becomes the number 0.001; a learning rate
+  written ``lin_1e-3`` (rl-zoo3's notation for a linear decay from 1e-3 to 0 over training)
+  becomes ``lin_0.001``.
+* :func:`python_value` turns the text form into what an algorithm takes: a ``lin_`` string
+  becomes a :class:`~stable_baselines3.common.utils.LinearSchedule`. Algorithms themselves take
+  plain Python values only, as every SB3 algorithm does.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 from stable_baselines3.common.utils import LinearSchedule
 
-__all__ = ["coerce_number", "coerce_value", "to_yaml_value"]
+__all__ = ["algorithm_kwargs", "canonical_value", "coerce_number", "python_value"]
+
+_SCHEDULE_PREFIX = "lin_"
 
 
 def coerce_number(value: Any) -> Any:
@@ -23,18 +34,35 @@ def coerce_number(value: Any) -> Any:
     return value
 
 
-def coerce_value(key: str, value: Any) -> Any:
-    """:func:`coerce_number`, and ``lin_<start>`` for ``*learning_rate`` keys as a linear schedule."""
-    if key.endswith("learning_rate") and isinstance(value, str) and value.startswith("lin_"):
-        start = coerce_number(value[len("lin_") :])
-        if not isinstance(start, float):
-            raise ValueError(f"{key}: {value!r} is not a linear schedule 'lin_<number>'")
-        return LinearSchedule(start, 0.0, 1.0)
+def _is_schedule(key: str, value: Any) -> bool:
+    return key.endswith("learning_rate") and isinstance(value, str) and value.startswith(_SCHEDULE_PREFIX)
+
+
+def _schedule_start(key: str, value: str) -> float:
+    start = coerce_number(value[len(_SCHEDULE_PREFIX) :])
+    if not isinstance(start, float):
+        raise ValueError(f"{key}: {value!r} is not a linear schedule 'lin_<number>' (e.g. 'lin_1e-3')")
+    return start
+
+
+def canonical_value(key: str, value: Any) -> Any:
+    """The text form of ``value`` for hyperparameter ``key`` (see the module docstring).
+
+    :raises ValueError: a ``lin_`` learning rate whose start is not a number.
+    """
+    if _is_schedule(key, value):
+        return f"{_SCHEDULE_PREFIX}{_schedule_start(key, value)}"
     return coerce_number(value)
 
 
-def to_yaml_value(value: Any) -> Any:
-    """The inverse of :func:`coerce_value` for writing a run's ``config.yml``."""
-    if isinstance(value, LinearSchedule) and value.end == 0.0 and value.end_fraction == 1.0:
-        return f"lin_{value.start}"
-    return repr(value) if callable(value) else value
+def python_value(key: str, value: Any) -> Any:
+    """The Python value of a text-form hyperparameter: ``lin_<start>`` learning rates become
+    ``LinearSchedule(start, 0, 1)``; everything else is returned as it is."""
+    if _is_schedule(key, value):
+        return LinearSchedule(_schedule_start(key, value), 0.0, 1.0)
+    return value
+
+
+def algorithm_kwargs(settings: Mapping[str, Any]) -> dict[str, Any]:
+    """Keyword arguments of an algorithm from text-form settings (:func:`python_value` of each)."""
+    return {key: python_value(key, canonical_value(key, value)) for key, value in settings.items()}

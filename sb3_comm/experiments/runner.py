@@ -1,13 +1,11 @@
 """Run an experiment: one process per run, in parallel on this machine or on a Ray cluster.
 
-Every run trains :class:`~sb3_comm.CommDDPG` with the packaged hyperparameters plus the
-experiment's overrides and writes, into ``OUT/runs/<task>/<method>/seed<seed>-<hash8>/``:
-
-- ``tb/`` (TensorBoard), ``checkpoints/``, ``evaluations.json`` (learning curve), ``config.yml``
-  (what ``sb3-comm evaluate`` reads) and ``model.zip``;
-- ``messages.npz`` (:func:`sb3_comm.analysis.collect_rollout`) for the t-SNE of the messages;
-- ``result.json`` last: curve, final return with messages intact, zeroed and shuffled,
-  communication metrics (:func:`sb3_comm.analysis.analyse_communication`) and timings.
+Every run is one call of :func:`sb3_comm.training.train_run` with the run's
+:class:`~sb3_comm.config.RunConfig` (the packaged hyperparameters plus the experiment's
+overrides), into ``OUT/runs/<task>/<method>/seed<seed>-<hash8>/``: ``tb/``, ``checkpoints/``,
+``evaluations.json``, ``config.yml``, ``model.zip``, ``messages.npz`` (for the t-SNE of the
+messages) and, last, ``result.json`` (a :class:`~sb3_comm.results.RunResult`: curve, final return
+with messages intact, zeroed and shuffled, communication metrics and timings).
 
 A run that raises writes ``error.txt`` (the traceback) instead; the other runs go on. A run
 whose ``result.json`` exists is skipped, so an interrupted experiment resumes where it stopped;
@@ -22,9 +20,6 @@ a run folder left without ``result.json`` is trained again, its earlier files mo
 from __future__ import annotations
 
 import datetime as dt
-import json
-import os
-import platform
 import shlex
 import shutil
 import sys
@@ -36,13 +31,12 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import yaml
 
-from sb3_comm.experiments.spec import EVAL_SEEDS, ExperimentSpec, ExperimentSpecError, RunSpec
+from sb3_comm.experiments.spec import ExperimentSpec, ExperimentSpecError, RunSpec
+from sb3_comm.results import RunResult, machine_info, read_json, usable_cores, write_json
 
 __all__ = [
-    "ABLATIONS",
     "default_workers",
     "machine_info",
     "run_experiment",
@@ -50,55 +44,12 @@ __all__ = [
     "select_runs",
 ]
 
-ABLATIONS = ("none", "zero", "shuffle")
-"""Final evaluations: messages intact, zeroed, shuffled across games."""
-
 RAY_MISSING = 'Ray is not installed: pip install "sb3-comm[ray]" (or pip install "ray>=2.9")'
 
 
 def default_workers() -> int:
     """Number of cores this process may use."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
-
-
-def machine_info() -> dict[str, Any]:
-    """Cores, CPU model, platform and Python version of this machine."""
-    model = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return {
-        "cores": os.cpu_count(),
-        "usable_cores": default_workers(),
-        "cpu_model": model,
-        "platform": platform.platform(),
-        "python": platform.python_version(),
-        "hostname": platform.node(),
-    }
-
-
-def _to_json(value: Any) -> Any:
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
-
-
-def _write_json(path: Path, data: Any) -> None:
-    """Write atomically: a reader never sees half a file."""
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=_to_json))
-    os.replace(tmp, path)
+    return usable_cores()
 
 
 def _move_aside(run_dir: Path) -> None:
@@ -115,137 +66,52 @@ def _move_aside(run_dir: Path) -> None:
         shutil.move(str(path), str(target / path.name))
 
 
-def _communication(model: Any, run: RunSpec, run_dir: Path) -> tuple[dict[str, Any] | None, str | None]:
-    """Messages of ``analysis_episodes`` games to ``messages.npz`` and the communication metrics.
-
-    A failure here does not fail the run (the trained model is worth keeping): it is recorded as
-    ``communication: null`` and ``communication_error``.
-    """
-    try:
-        from sb3_comm.analysis import analyse_communication, collect_rollout
-
-        seed = EVAL_SEEDS["analysis"]
-        rollout = collect_rollout(model, run.task, n_episodes=run.analysis_episodes, seed=seed)
-        rollout.save(run_dir / "messages.npz")
-        metrics = analyse_communication(
-            model, run.task, n_episodes=run.analysis_episodes, seed=seed, rollout=rollout
-        )
-        return json.loads(json.dumps(metrics, default=_to_json)), None
-    except Exception:
-        return None, traceback.format_exc()
-
-
 def run_one(run: RunSpec, run_dir: str | Path) -> dict[str, Any]:
-    """Train, evaluate and analyse one run into ``run_dir``; never raises.
+    """Train, evaluate and analyse one run into ``run_dir`` (:func:`~sb3_comm.training.train_run`);
+    never raises.
 
     :param run: the resolved run.
     :param run_dir: its folder (created; an unfinished earlier attempt there is moved aside).
-    :return: ``result.json``'s content when done, else ``{"status": "failed", "error": ...}``.
+    :return: the :class:`~sb3_comm.results.RunResult` as JSON (``status`` ``done`` or ``failed``;
+        ``skipped`` when another invocation finished it meanwhile).
     """
     began = time.perf_counter()
-    started = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     if (run_dir / "result.json").exists():  # finished meanwhile (another invocation)
-        return {**json.loads((run_dir / "result.json").read_text()), "status": "skipped"}
+        return {**read_json(run_dir / "result.json"), "status": "skipped"}
     _move_aside(run_dir)
     import torch as th
+
+    from sb3_comm.training import train_run
 
     threads = th.get_num_threads()
     th.set_num_threads(1)  # one core per run; runs go in parallel
     try:
-        return _train_and_evaluate(run, run_dir, began, started)
+        result = train_run(
+            run.config,
+            run_dir,
+            evaluation=run.eval_settings,
+            save_freq=run.save_freq,
+            config_hash=run.config_hash,
+        )
+        return result.to_json()
     except BaseException as error:
         (run_dir / "error.txt").write_text(traceback.format_exc())
         if not isinstance(error, Exception):  # KeyboardInterrupt, SystemExit: stop
             raise
-        return {
-            "method": run.method,
-            "task": run.task,
-            "seed": run.seed,
-            "config_hash": run.config_hash,
-            "status": "failed",
-            "error": f"{type(error).__name__}: {error}",
-            "wall_seconds": time.perf_counter() - began,
-        }
+        failed = RunResult(
+            run.method,
+            run.task,
+            run.seed,
+            status="failed",
+            config_hash=run.config_hash,
+            error=f"{type(error).__name__}: {error}",
+            wall_seconds=time.perf_counter() - began,
+        )
+        return failed.to_json()
     finally:
         th.set_num_threads(threads)
-
-
-def _train_and_evaluate(run: RunSpec, run_dir: Path, began: float, started: str) -> dict[str, Any]:
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback
-
-    from sb3_comm import CommDDPG, make_comm_vec_env
-    from sb3_comm.callbacks import TeamEvalCallback
-    from sb3_comm.common.hyperparams import coerce_value
-    from sb3_comm.evaluation import evaluate_team
-
-    settings = {key: coerce_value(key, value) for key, value in run.hyperparams.items()}
-    n_envs = int(settings.pop("n_envs"))
-    (run_dir / "config.yml").write_text(
-        yaml.safe_dump({run.task: {"policy": run.method, "n_timesteps": run.timesteps, **run.hyperparams}})
-    )
-    model = CommDDPG(
-        run.method,
-        make_comm_vec_env(run.task, n_envs=n_envs, seed=run.seed),
-        tensorboard_log=str(run_dir / "tb"),
-        seed=run.seed,
-        device="cpu",
-        **settings,
-    )
-    evaluator = TeamEvalCallback(
-        run.task,
-        eval_freq=run.eval_freq,
-        n_episodes=run.eval_episodes,
-        seed=EVAL_SEEDS["curve"],
-        log_path=run_dir / "evaluations.json",
-    )
-    checkpoints = CheckpointCallback(
-        max(run.save_freq // n_envs, 1), str(run_dir / "checkpoints"), name_prefix="model"
-    )
-    learn_began = time.perf_counter()
-    model.learn(run.timesteps, callback=CallbackList([evaluator, checkpoints]), log_interval=100 * n_envs)
-    train_seconds = time.perf_counter() - learn_began - evaluator.eval_seconds
-    model.save(run_dir / "model.zip")
-    if not evaluator.history or evaluator.history[-1]["timesteps"] != model.num_timesteps:
-        evaluator.evaluate()  # the curve ends where training ended
-    final = {
-        ablation: evaluate_team(
-            model, run.task, n_episodes=run.eval_episodes, seed=EVAL_SEEDS["final"], ablation=ablation
-        ).summary()
-        for ablation in ABLATIONS
-    }
-    communication, communication_error = _communication(model, run, run_dir)
-    result = {
-        "method": run.method,
-        "task": run.task,
-        "seed": run.seed,
-        "config_hash": run.config_hash,
-        "status": "done",
-        "timesteps": int(model.num_timesteps),
-        "budget": run.timesteps,
-        "n_envs": n_envs,
-        "updates": int(getattr(model, "_n_updates", 0)),
-        "train_seconds": train_seconds,
-        "eval_seconds": evaluator.eval_seconds,
-        "wall_seconds": time.perf_counter() - began,
-        "started": started,
-        "finished": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
-        "hyperparams": run.hyperparams,
-        "eval": {
-            "freq": run.eval_freq,
-            "episodes": run.eval_episodes,
-            "analysis_episodes": run.analysis_episodes,
-            "seeds": EVAL_SEEDS,
-        },
-        "curve": evaluator.history,
-        "final": final,
-        "communication": communication,
-    }
-    if communication_error is not None:
-        result["communication_error"] = communication_error
-    _write_json(run_dir / "result.json", result)  # last: its presence means the run is done
-    return result
 
 
 def _parse_selector(selector: str) -> tuple[str, str, str]:
@@ -429,7 +295,7 @@ def run_experiment(
                "config_hash": run.config_hash, "dir": str(run.relative_dir)}  # fmt: skip
         result_path = out / run.relative_dir / "result.json"
         if result_path.exists():
-            rows[run.key] = {**row, **_timing(json.loads(result_path.read_text())), "status": "skipped"}
+            rows[run.key] = {**row, **_timing(read_json(result_path)), "status": "skipped"}
         elif run.key in selected_keys:
             rows[run.key] = {**row, "status": "pending"}
             todo.append(run)
@@ -471,7 +337,7 @@ def run_experiment(
                     f"(traceback: {out / run.relative_dir / 'error.txt'})"
                 )
     summary = _summary(spec, out, rows, began, n_workers, backend, command)
-    _write_json(out / "summary.json", summary)
+    write_json(out / "summary.json", summary)
     _print_summary(summary, spec, out, echo)
     return summary
 

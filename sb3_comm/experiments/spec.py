@@ -33,11 +33,15 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
-from sb3_comm.common.hyperparams import coerce_number, coerce_value, to_yaml_value
+from sb3_comm.common.hyperparams import canonical_value, coerce_number
+from sb3_comm.config import RunConfig, check_keys
+
+if TYPE_CHECKING:
+    from sb3_comm.training import EvalSettings
 
 __all__ = [
     "EVAL_SEEDS",
@@ -137,6 +141,26 @@ class RunSpec:
         return f"{self.method}/{self.task}/{self.seed}"
 
     @property
+    def config(self) -> RunConfig:
+        """The run's :class:`~sb3_comm.config.RunConfig` (what :func:`~sb3_comm.training.train_run` takes)."""
+        entry = {**self.hyperparams, "n_timesteps": self.timesteps}
+        return RunConfig.from_entry(entry, self.method, self.task, seed=self.seed)
+
+    @property
+    def eval_settings(self) -> EvalSettings:
+        """How the run is evaluated (the seeds are :data:`EVAL_SEEDS`)."""
+        from sb3_comm.training import EvalSettings
+
+        return EvalSettings(
+            freq=self.eval_freq,
+            episodes=self.eval_episodes,
+            curve_seed=EVAL_SEEDS["curve"],
+            final_seed=EVAL_SEEDS["final"],
+            analysis_episodes=self.analysis_episodes,
+            analysis_seed=EVAL_SEEDS["analysis"],
+        )
+
+    @property
     def hash_input(self) -> dict[str, Any]:
         """Everything that defines the run except method, task and seed."""
         return {
@@ -204,17 +228,10 @@ class ExperimentSpec:
         return merged
 
     def resolve(self, method: str, task: str) -> tuple[int, dict[str, Any]]:
-        """Budget and YAML-form hyperparameters (``n_envs`` included) of ``method`` on ``task``."""
-        from sb3_comm.config import load_hyperparams
-
-        settings = load_hyperparams(method, task)
-        settings.update(
-            {key: coerce_value(key, value) for key, value in self.overrides(method, task).items()}
-        )
-        packaged_budget = int(settings.pop("n_timesteps"))
-        settings.pop("policy")
-        budget = self.timesteps.get(task) or packaged_budget
-        return int(budget), {key: _plain(to_yaml_value(value)) for key, value in settings.items()}
+        """Budget and text-form hyperparameters (``n_envs`` included) of ``method`` on ``task``."""
+        config = RunConfig.load(method, task, overrides=self.overrides(method, task))
+        budget = self.timesteps.get(task) or config.n_timesteps
+        return int(budget), _plain({"n_envs": config.n_envs, **config.hyperparams})
 
     def runs(self) -> list[RunSpec]:
         """Every run of the experiment, in task, method, seed order."""
@@ -439,7 +456,6 @@ def _timesteps(value: Any, tasks: list[str], context: str) -> dict[str, int | No
 
 def _hyperparams(value: Any, context: str) -> dict[str, dict[str, Any]]:
     from sb3_comm.comm_ddpg import METHODS
-    from sb3_comm.config import accepted_keys
     from sb3_comm.registration import TASK_IDS
 
     if value is None:
@@ -449,7 +465,6 @@ def _hyperparams(value: Any, context: str) -> dict[str, dict[str, Any]]:
         raise ExperimentSpecError(
             f"{context}: 'hyperparams' must map sections to settings; sections: {sections_accepted}"
         )
-    keys = [key for key in accepted_keys() if key not in _RESERVED_HYPERPARAMS]
     result: dict[str, dict[str, Any]] = {}
     for raw_section, entry in value.items():
         section = _section_name(str(raw_section))
@@ -469,14 +484,14 @@ def _hyperparams(value: Any, context: str) -> dict[str, dict[str, Any]]:
                     f"{context}: hyperparams[{raw_section!r}] may not set {key!r}: "
                     f"{_RESERVED_HYPERPARAMS[key]}"
                 )
-        _check_keys(entry, keys, f"{context}: unknown hyperparameter(s) in hyperparams[{raw_section!r}]")
         checked = {}
-        for key, raw in entry.items():
-            try:
-                coerce_value(key, raw)
-            except ValueError as error:
-                raise ExperimentSpecError(f"{context}: hyperparams[{raw_section!r}]: {error}") from error
-            checked[key] = _plain(coerce_number(raw))
+        try:
+            where = f"{context}: hyperparams[{raw_section!r}]"
+            check_keys(entry, where, exclude=tuple(_RESERVED_HYPERPARAMS))
+            for key, raw in entry.items():
+                checked[key] = _plain(canonical_value(key, raw))
+        except ValueError as error:
+            raise ExperimentSpecError(str(error)) from error
         if "n_envs" in checked:
             _int(checked["n_envs"], f"hyperparams[{raw_section!r}]: n_envs", context)
         result.setdefault(section, {}).update(checked)

@@ -1,0 +1,203 @@
+"""One training run, end to end: the single run path of the project.
+
+``sb3-comm train``, the experiment runner (``sb3-comm experiment`` / ``reproduce``) and
+``benchmarks/solve.py`` all call :func:`train_run`; rl-zoo3 builds its models through the same
+:class:`~sb3_comm.config.RunConfig` conversion. A run folder receives:
+
+- ``config.yml``: the :class:`~sb3_comm.config.RunConfig` (what ``sb3-comm evaluate`` reads);
+- ``tb/`` (TensorBoard), ``checkpoints/`` and ``evaluations.json`` (the learning curve, rewritten
+  after every evaluation so that a run that dies keeps it);
+- ``model.zip`` (also written when training is interrupted);
+- ``messages.npz`` when a communication analysis is asked for;
+- ``result.json`` last: the :class:`~sb3_comm.results.RunResult`.
+
+>>> from sb3_comm.config import RunConfig
+>>> from sb3_comm.training import train_run
+>>> result = train_run(RunConfig.load("GSN", "BlindSoccer-v0"), "runs/gsn0")  # doctest: +SKIP
+>>> result.final_return  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import time
+import traceback
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback
+from stable_baselines3.common.vec_env import VecEnv
+
+from sb3_comm.callbacks import TeamEvalCallback
+from sb3_comm.comm_ddpg import CommDDPG
+from sb3_comm.config import RunConfig
+from sb3_comm.evaluation import ABLATIONS, evaluate_team
+from sb3_comm.registration import make_comm_vec_env
+from sb3_comm.results import RunResult, to_jsonable
+
+__all__ = ["EvalSettings", "build_model", "train_run"]
+
+
+@dataclass(frozen=True)
+class EvalSettings:
+    """How a run is evaluated.
+
+    :param freq: a learning-curve evaluation every this many environment steps.
+    :param episodes: games per evaluation (deterministic policy, one episode each).
+    :param curve_seed: seed of the learning-curve games (the same games at every evaluation).
+    :param final_seed: seed of the final evaluation with the message ablations.
+    :param ablations: the final evaluations: messages intact, zeroed, shuffled.
+    :param analysis_episodes: games recorded for the communication analysis (0: none).
+    :param analysis_seed: seed of those games.
+    :param target_return: the return that counts as solved (time and steps to it are recorded).
+    """
+
+    freq: int = 25_000
+    episodes: int = 100
+    curve_seed: int = 12_345
+    final_seed: int = 20_000
+    ablations: tuple[str, ...] = ABLATIONS
+    analysis_episodes: int = 0
+    analysis_seed: int = 0
+    target_return: float | None = None
+
+    def describe(self) -> dict[str, Any]:
+        """The ``eval`` entry of a :class:`~sb3_comm.results.RunResult`."""
+        return {
+            "freq": self.freq,
+            "episodes": self.episodes,
+            "analysis_episodes": self.analysis_episodes,
+            "seeds": {"curve": self.curve_seed, "final": self.final_seed, "analysis": self.analysis_seed},
+        }
+
+
+def build_model(config: RunConfig, env: VecEnv | None = None, **kwargs: Any) -> CommDDPG:
+    """The :class:`~sb3_comm.CommDDPG` of a configuration.
+
+    :param config: the run configuration.
+    :param env: the training environment (default: ``config.n_envs`` batched games of
+        ``config.task``, seeded with ``config.seed``).
+    :param kwargs: further CommDDPG arguments that are not hyperparameters (``tensorboard_log``,
+        ``device``, ``verbose``).
+    """
+    if env is None:
+        env = make_comm_vec_env(config.task, n_envs=config.n_envs, seed=config.seed)
+    return CommDDPG(config.method, env, seed=config.seed, **config.algorithm_kwargs(), **kwargs)
+
+
+def _communication(
+    model: CommDDPG, config: RunConfig, run_dir: Path, settings: EvalSettings
+) -> tuple[dict[str, Any] | None, str | None]:
+    """Messages of ``analysis_episodes`` games to ``messages.npz``, and the communication metrics.
+
+    A failure here does not fail the run (the trained model is worth keeping): it is returned as
+    ``(None, traceback)`` and recorded in ``communication_error``.
+    """
+    try:
+        from sb3_comm.analysis import analyse_communication, collect_rollout
+
+        n, seed = settings.analysis_episodes, settings.analysis_seed
+        rollout = collect_rollout(model, config.task, n_episodes=n, seed=seed)
+        rollout.save(run_dir / "messages.npz")
+        metrics = analyse_communication(model, config.task, n_episodes=n, seed=seed, rollout=rollout)
+        return to_jsonable(metrics), None
+    except Exception:
+        return None, traceback.format_exc()
+
+
+def train_run(
+    config: RunConfig,
+    run_dir: str | Path,
+    evaluation: EvalSettings | None = None,
+    save_freq: int = 100_000,
+    callbacks: Sequence[BaseCallback] = (),
+    config_hash: str | None = None,
+    device: str = "cpu",
+    verbose: int = 0,
+    eval_verbose: int = 0,
+    progress_bar: bool = False,
+) -> RunResult:
+    """Train, evaluate (and optionally analyse) one run into ``run_dir``.
+
+    :param config: the run configuration.
+    :param run_dir: the run folder (created; see the module docstring for what it receives).
+    :param evaluation: how to evaluate (default: :class:`EvalSettings`).
+    :param save_freq: a checkpoint every this many environment steps (0: none).
+    :param callbacks: further SB3 callbacks (e.g. a time budget).
+    :param config_hash: fingerprint recorded in the result (experiment runs).
+    :param device: torch device.
+    :param verbose: verbosity of the algorithm.
+    :param eval_verbose: 1 prints every periodic evaluation.
+    :param progress_bar: show SB3's progress bar.
+    :return: the :class:`~sb3_comm.results.RunResult`, also written to ``run_dir/result.json``.
+    """
+    settings = evaluation or EvalSettings()
+    began = time.perf_counter()
+    started = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / "config.yml").write_text(config.to_yaml())
+    model = build_model(config, tensorboard_log=str(run_dir / "tb"), device=device, verbose=verbose)
+    evaluator = TeamEvalCallback(
+        config.task,
+        eval_freq=settings.freq,
+        n_episodes=settings.episodes,
+        target_return=settings.target_return,
+        seed=settings.curve_seed,
+        log_path=run_dir / "evaluations.json",
+        verbose=eval_verbose,
+    )
+    run_callbacks: list[BaseCallback] = [evaluator]
+    if save_freq > 0:
+        run_callbacks.append(
+            CheckpointCallback(
+                max(save_freq // config.n_envs, 1), str(run_dir / "checkpoints"), name_prefix="model"
+            )
+        )
+    learn_began = time.perf_counter()
+    try:
+        model.learn(
+            config.n_timesteps,
+            callback=CallbackList([*run_callbacks, *callbacks]),
+            progress_bar=progress_bar,
+            log_interval=100 * config.n_envs,
+        )
+    finally:
+        model.save(run_dir / "model.zip")
+    train_seconds = time.perf_counter() - learn_began - evaluator.eval_seconds
+    if not evaluator.history or evaluator.history[-1]["timesteps"] != model.num_timesteps:
+        evaluator.evaluate()  # the curve ends where training ended
+    final = {
+        ablation: evaluate_team(
+            model, config.task, n_episodes=settings.episodes, seed=settings.final_seed, ablation=ablation
+        ).summary()
+        for ablation in settings.ablations
+    }
+    result = RunResult(
+        method=config.method,
+        task=config.task,
+        seed=config.seed,
+        config_hash=config_hash,
+        timesteps=int(model.num_timesteps),
+        budget=config.n_timesteps,
+        n_envs=config.n_envs,
+        updates=int(model.n_updates),
+        train_seconds=train_seconds,
+        eval_seconds=evaluator.eval_seconds,
+        hyperparams={"n_envs": config.n_envs, **config.hyperparams},
+        eval=settings.describe(),
+        curve=evaluator.history,
+        final=final,
+        target_return=settings.target_return,
+        time_to_target_seconds=evaluator.time_to_target,
+        steps_to_target=evaluator.steps_to_target,
+        started=started,
+    )
+    if settings.analysis_episodes > 0:
+        result.communication, result.communication_error = _communication(model, config, run_dir, settings)
+    result.wall_seconds = time.perf_counter() - began
+    result.finished = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
+    result.save(run_dir / "result.json")  # last: its presence means the run is done
+    return result
