@@ -1,6 +1,8 @@
 """Reference returns: scripted full-information oracles and random policies on every task.
 
-These are the denominators of every later result (SPEC §5: a method's return is reported as a
+The communication tasks and their oracle, random and baseline policies come from the task
+registry (:data:`envs.registry.TASKS`); the single-agent HFO tasks are added here. These are
+the denominators of every later result (SPEC §5: a method's return is reported as a
 fraction of the oracle's). For each task, ``--episodes`` (default 1,000) episodes per policy, one
 per parallel game, seeded; the mean, standard deviation and normal-approximation 95% confidence
 interval (1.96 std / sqrt(n)) of the episode return, the mean episode length and how the
@@ -28,16 +30,8 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import write_results
-from envs import blind_soccer_v0, guess_my_number_v0
-from envs.oracles import (
-    blind_dash_forward,
-    blind_soccer_oracle,
-    empty_goal_oracle,
-    evaluate,
-    guess_my_number_oracle,
-    move_to_ball_oracle,
-    random_policy,
-)
+from envs.oracles import empty_goal_oracle, evaluate, move_to_ball_oracle, random_policy
+from envs.registry import TASKS as COMM_TASKS
 from envs.tasks.batched import BatchedTask
 from envs.tasks.single_agent import MoveToBallTask, ScoreEmptyGoalTask
 
@@ -50,24 +44,25 @@ def _random(seed: int) -> Callable[[BatchedTask], np.ndarray]:
     return lambda task: random_policy(task, rng)
 
 
-TASKS: dict[str, tuple[Callable[[int], BatchedTask], dict[str, Callable[[BatchedTask], np.ndarray]]]] = {
-    "blind_soccer": (
-        lambda n: blind_soccer_v0.batched_env(n_games=n),
-        {"oracle": blind_soccer_oracle, "random": _random(1), "blind_dash_forward": blind_dash_forward},
-    ),
-    "guess_my_number": (
-        lambda n: guess_my_number_v0.batched_env(n_games=n),
-        {"oracle": guess_my_number_oracle, "random": _random(2)},
-    ),
+Policies = dict[str, Callable[[BatchedTask], np.ndarray]]
+
+TASKS: dict[str, tuple[Callable[[int], BatchedTask], Policies]] = {
+    # the communication tasks of the registry, by short key: oracle, random, then their baselines
+    **{
+        spec.key: (spec.batched_env, spec.reference_policies(np.random.default_rng(k + 1)))
+        for k, spec in enumerate(COMM_TASKS.values())
+    },
     "hfo_move_to_ball": (
         lambda n: MoveToBallTask(n_games=n),
-        {"oracle": move_to_ball_oracle, "random": _random(3)},
+        {"oracle": move_to_ball_oracle, "random": _random(len(COMM_TASKS) + 1)},
     ),
     "hfo_score_empty_goal": (
         lambda n: ScoreEmptyGoalTask(n_games=n),
-        {"oracle": empty_goal_oracle, "random": _random(4)},
+        {"oracle": empty_goal_oracle, "random": _random(len(COMM_TASKS) + 2)},
     ),
 }
+"""Task key -> (``make(n_games)``, policies by name). The random policy of the k-th task (from 1)
+draws from seed k, so the stored ``oracles.json`` is reproduced exactly."""
 
 NOTES = """
 Notes:

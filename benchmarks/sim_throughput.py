@@ -28,13 +28,14 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import write_results
-from envs import blind_soccer_v0, guess_my_number_v0
+from envs.registry import TASKS as REGISTRY
 from envs.soccer import features, physics, referee
 from envs.soccer.reset import reset_state
 from envs.tasks.batched import BatchedTask
 from envs.tasks.hfo_actions import decode_actions
 
-TASKS = {"blind_soccer": blind_soccer_v0, "guess_my_number": guess_my_number_v0}
+TASKS = {spec.key: spec for spec in REGISTRY.values()}
+"""Task key -> its registry record (``batched_env``, ``parallel_env``)."""
 TARGET = 1_000_000
 POOL = 32  # pre-drawn action batches
 

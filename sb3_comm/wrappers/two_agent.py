@@ -17,7 +17,6 @@ each agent's own reward in ``info["agent_rewards"]`` (what :class:`sb3_comm.Comm
 
 from __future__ import annotations
 
-import importlib
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -243,10 +242,14 @@ class TwoAgentEnv(gym.Env):
 
 
 def make_task_env(task: str, **kwargs: Any) -> TwoAgentEnv:
-    """Build ``TwoAgentEnv(envs.<task>.parallel_env(**kwargs))``; used by the registered ids.
+    """Build ``TwoAgentEnv(spec.parallel_env(**kwargs))`` for a task of :data:`envs.registry.TASKS`;
+    the entry point of the registered ids.
 
-    :param task: module name of a task under ``envs`` (e.g. ``"blind_soccer_v0"``).
+    :param task: the task's Gymnasium id (``"BlindSoccer-v0"``), short key (``"blind_soccer"``) or
+        PettingZoo name (``"blind_soccer_v0"``, what earlier versions registered).
     :param kwargs: the task's own options (e.g. ``channel_size``, ``max_steps``, ``render_mode``).
+    :raises KeyError: for an unknown task, naming the accepted ones.
     """
-    module = importlib.import_module(f"envs.{task}")
-    return TwoAgentEnv(module.parallel_env(**kwargs))
+    from envs.registry import get_task
+
+    return TwoAgentEnv(get_task(task).parallel_env(**kwargs))
