@@ -13,22 +13,24 @@ core, each with one torch thread.
 from __future__ import annotations
 
 import argparse
-import json
 import multiprocessing as mp
 import sys
 from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS_DIR, write_results
+from _common import write_results
 
-ORACLE_KEYS = {"BlindSoccer-v0": "blind_soccer", "GuessMyNumber-v0": "guess_my_number"}
+from envs.registry import get_task, task_ids
+from sb3_comm.analysis.references import REFERENCE_SEED, reference_returns
 
 
 def oracle_returns(env_id: str) -> tuple[float, float]:
-    """Mean team return of the oracle and of the random policy (benchmarks/results/oracles.json)."""
-    data = json.loads((RESULTS_DIR / "oracles.json").read_text())[ORACLE_KEYS[env_id]]
-    return data["oracle"]["team_return"]["mean"], data["random"]["team_return"]["mean"]
+    """Mean team return of the oracle and of the random policy (1,000 episodes, the report's
+    :func:`~sb3_comm.analysis.references.reference_returns`)."""
+    references = reference_returns(env_id, n_episodes=1000, seed=REFERENCE_SEED)
+    assert references is not None  # --env is one of the registry's ids
+    return references["oracle"], references["random"]
 
 
 def run_one(job: dict[str, Any]) -> dict[str, Any]:
@@ -63,7 +65,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--env", default="BlindSoccer-v0", choices=sorted(ORACLE_KEYS))
+    parser.add_argument("--env", default="BlindSoccer-v0", choices=task_ids())
     parser.add_argument("--methods", nargs="+", default=["GSN", "NONE"])
     parser.add_argument("--seeds", nargs="+", type=int, default=[0])
     parser.add_argument("--timesteps", type=int, default=None, help="override the config's n_timesteps")
@@ -116,7 +118,8 @@ def main() -> None:
             f"{fin['zero']['mean_return']:.3f} | {fin['shuffle']['mean_return']:.3f} |"
         )
     notes = (
-        f"\n\nOracle return {oracle:.4f}, random {random_return:.4f} (`benchmarks/results/oracles.json`); "
+        f"\n\nOracle return {oracle:.4f}, random {random_return:.4f} "
+        f"(1,000 episodes, seed {REFERENCE_SEED}); "
         f"target = {args.target_fraction} × oracle = {target:.4f}. Returns are team means over 100 "
         "deterministic evaluation episodes. Time to target is training wall-clock time with the "
         f"periodic evaluations (every {args.eval_freq:,} steps) excluded; each run is one process with "
@@ -124,7 +127,7 @@ def main() -> None:
         f"per run: {args.time_budget:.0f} s."
     )
     write_results(
-        args.name or f"solve_{ORACLE_KEYS[args.env]}",
+        args.name or f"solve_{get_task(args.env).key}",
         {
             "env": args.env,
             "oracle_return": oracle,

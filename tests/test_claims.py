@@ -16,6 +16,7 @@ from sb3_comm.analysis.claims import (
     zeroing_lowers_return,
 )
 from sb3_comm.analysis.tables import communication_table, final_returns_table
+from sb3_comm.results import RunResult
 
 TASK = "BlindSoccer-v0"
 ORACLE, RANDOM = 0.6, -0.4
@@ -35,7 +36,7 @@ def _runs(method: str, finals: list[tuple[float, float]], probe: float | None = 
         if probe is not None:
             metrics = {"probe_accuracy": probe, "majority_rate": 0.6, "cic": 0.1}
             result["communication"] = {"directions": {"sighted->blind": metrics}}
-        runs.append({"seed": seed, "result": result})
+        runs.append({"seed": seed, "result": RunResult(method, TASK, seed, **result)})
     return runs
 
 

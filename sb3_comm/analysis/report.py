@@ -30,14 +30,10 @@ stratified-bootstrap intervals over seeds (:func:`~sb3_comm.analysis.stats.inter
 
 from __future__ import annotations
 
-import json
-import math
 import traceback
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from sb3_comm.analysis import markdown
 from sb3_comm.analysis.claims import MIN_SEEDS, SOLVED_FRACTION, Claim, judge_claims
@@ -45,31 +41,25 @@ from sb3_comm.analysis.metrics import linear_probe
 from sb3_comm.analysis.plots import plot_ablation, plot_learning_curves, plot_tsne
 from sb3_comm.analysis.references import cached_references, reference_returns
 from sb3_comm.analysis.rollout import ACTION_NAMES, Rollout, communication_directions
-from sb3_comm.analysis.runs import group_runs, learning_curve, load_runs, method_order, provenance
+from sb3_comm.analysis.runs import (
+    communication_of,
+    group_runs,
+    learning_curve,
+    load_runs,
+    method_order,
+    provenance,
+)
 from sb3_comm.analysis.tables import ABLATIONS, communication_table, final_returns_table
+from sb3_comm.results import to_jsonable, write_json
 
 __all__ = ["MIN_SEEDS", "SOLVED_FRACTION", "load_runs", "make_report", "reference_returns"]
 
 
-def _clean(value: Any) -> Any:
-    """JSON-safe copy: NaN/inf -> None, NumPy scalars and arrays -> Python."""
-    if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_clean(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _clean(value.tolist())
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 def _write(path: Path, data: Any) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(_clean(data), indent=2, allow_nan=False) if path.suffix == ".json" else data
-    path.write_text(text)
+    if path.suffix == ".json":
+        return write_json(path, data)
+    path.write_text(data)
     return path
 
 
@@ -83,7 +73,7 @@ def _has_blind_receiver(task: str, runs: dict[str, list[dict]]) -> bool:
         return True
     for method_runs in runs.values():
         for run in method_runs:
-            directions = (run["result"].get("communication") or {}).get("directions") or {}
+            directions = (communication_of(run) or {}).get("directions") or {}
             if any(key.endswith("->blind") for key in directions):
                 return True
     return False
@@ -243,4 +233,4 @@ def make_report(
     ]
     report["files"] = [str(p) for p in files] + [str(out / "report.json")]
     _write(out / "report.json", report)
-    return _clean(report)
+    return to_jsonable(report)

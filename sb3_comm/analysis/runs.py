@@ -3,8 +3,9 @@
 This module is the one place that reads what the runner wrote, so that a change of the result
 format touches nothing else:
 
-* :func:`load_runs`: every run folder under ``experiment_dir/runs/`` with its ``result.json`` or
-  the reason it cannot be used (the entries the rest of the report works on);
+* :func:`load_runs`: every run folder under ``experiment_dir/runs/`` with its ``result.json``
+  (a :class:`~sb3_comm.results.RunResult`) or the reason it cannot be used (the entries the rest
+  of the report works on);
 * :func:`group_runs`: the usable runs by task and method, in report order;
 * :func:`final_return`, :func:`learning_curve`, :func:`communication_of`: what a run measured;
 * :func:`provenance`: the runner's command, machine and timing (``summary.json``).
@@ -19,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from sb3_comm.comm_ddpg import METHODS
+from sb3_comm.results import RunResult
 
 __all__ = [
     "communication_of",
@@ -60,10 +62,10 @@ def provenance(experiment_dir: Path, runs: list[dict[str, Any]]) -> dict[str, An
     data = data if isinstance(data, dict) else {}
     keys = ("command", "finished", "wall_seconds", "backend", "workers", "machine", "env_steps")
     out = {key: data.get(key) for key in keys}
-    results = [r["result"] for r in runs if r.get("used") and isinstance(r.get("result"), dict)]
+    results = [r["result"] for r in runs if r.get("used") and isinstance(r.get("result"), RunResult)]
     out["runs_used"] = len(results)
-    out["run_wall_seconds_total"] = float(sum(r.get("wall_seconds") or 0.0 for r in results))
-    out["run_env_steps"] = sorted({int(r.get("timesteps") or 0) for r in results})
+    out["run_wall_seconds_total"] = float(sum(r.wall_seconds or 0.0 for r in results))
+    out["run_env_steps"] = sorted({int(r.timesteps or 0) for r in results})
     return out
 
 
@@ -79,7 +81,8 @@ def load_runs(experiment_dir: str | Path) -> list[dict[str, Any]]:
     or an ``error.txt``, or a folder named in ``summary.json``, unless it lies inside another run
     folder (such as the runner's ``previous_attempts/``). Each entry has ``dir`` (relative
     to ``experiment_dir``), ``task``, ``method``, ``seed``, ``used`` (bool), ``reason`` (why not
-    used), ``issues`` (what is missing for some parts, e.g. ``messages.npz``) and ``result``.
+    used), ``issues`` (what is missing for some parts, e.g. ``messages.npz``) and ``result`` (the
+    :class:`~sb3_comm.results.RunResult`, or None).
     """
     root = Path(experiment_dir).resolve()
     runs_dir = root / "runs"
@@ -119,23 +122,20 @@ def load_runs(experiment_dir: str | Path) -> list[dict[str, Any]]:
             entries.append(entry)
             continue
         try:
-            result = json.loads(result_path.read_text())
-            if not isinstance(result, dict):
-                raise ValueError(f"expected a JSON object, got {type(result).__name__}")
-        except (OSError, ValueError) as error:
+            result = RunResult.from_json(json.loads(result_path.read_text()))
+        except (OSError, ValueError, TypeError) as error:
             entry["reason"] = f"corrupt result.json: {error}"
             entries.append(entry)
             continue
-        entry["task"] = result.get("task", entry["task"])
-        entry["method"] = str(result.get("method", entry["method"]) or "").upper() or None
-        entry["seed"] = result.get("seed", entry["seed"])
-        if result.get("status") != "done":
-            entry["reason"] = f"status {result.get('status')!r}"
+        entry["task"] = result.task or entry["task"]
+        entry["method"] = str(result.method or entry["method"] or "").upper() or None
+        entry["seed"] = result.seed if result.seed is not None else entry["seed"]
+        if result.status != "done":
+            entry["reason"] = f"status {result.status!r}"
             entries.append(entry)
             continue
-        final = result.get("final")
         try:
-            float(final["none"]["mean_return"])  # type: ignore[index]
+            float(result.final["none"]["mean_return"])
         except (KeyError, TypeError, ValueError):
             entry["reason"] = "result.json has no final['none']['mean_return']"
             entries.append(entry)
@@ -149,8 +149,8 @@ def load_runs(experiment_dir: str | Path) -> list[dict[str, Any]]:
             entry["issues"].append("messages.npz missing: no t-SNE from this run")
         if not (run_dir / "model.zip").is_file():
             entry["issues"].append("model.zip missing")
-        if not isinstance(result.get("communication"), dict):
-            lines = str(result.get("communication_error") or "").strip().splitlines()
+        if not isinstance(result.communication, dict):
+            lines = str(result.communication_error or "").strip().splitlines()
             detail = f" ({lines[-1].strip()})" if lines else ""
             entry["issues"].append(f"no communication metrics in result.json{detail}")
         entries.append(entry)
@@ -183,7 +183,7 @@ def final_return(run: dict[str, Any], ablation: str) -> float:
     """Mean final return of a run with its messages ``"none"`` (intact), ``"zero"`` or
     ``"shuffle"`` (NaN when not measured)."""
     try:
-        return float(run["result"]["final"][ablation]["mean_return"])
+        return float(run["result"].final[ablation]["mean_return"])
     except (KeyError, TypeError, ValueError):
         return float("nan")
 
@@ -191,7 +191,7 @@ def final_return(run: dict[str, Any], ablation: str) -> float:
 def learning_curve(run: dict[str, Any], root: Path) -> tuple[np.ndarray, np.ndarray]:
     """(timesteps, mean return) of a run's evaluations, from ``result.json`` or, when it has none,
     ``evaluations.json``; ``root`` is the experiment folder."""
-    points = run["result"].get("curve")
+    points = run["result"].curve
     if not points:
         try:
             points = json.loads((root / run["dir"] / "evaluations.json").read_text())
@@ -206,5 +206,5 @@ def learning_curve(run: dict[str, Any], root: Path) -> tuple[np.ndarray, np.ndar
 def communication_of(run: dict[str, Any]) -> dict[str, Any] | None:
     """The communication metrics of a run (``{"directions": {"sighted->blind": {...}}}``), or
     None when it has none."""
-    comm = run["result"].get("communication")
+    comm = run["result"].communication
     return comm if isinstance(comm, dict) else None
