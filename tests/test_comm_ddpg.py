@@ -10,6 +10,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from toy_envs import coin_env
 
 from sb3_comm import METHODS, CommDDPG
+from sb3_comm.comm_ddpg import GSNTrainingCallback
 from sb3_comm.common.networks import inverting_gradients
 
 
@@ -85,7 +86,9 @@ def test_gsn_loss_and_agent_losses_touch_disjoint_parameters() -> None:
     assert not all(th.equal(a, b) for a, b in zip(agents_before, policy.actor.parameters(), strict=False))
 
     agents_mid = [p.detach().clone() for p in [*policy.actor.parameters(), *policy.critic.parameters()]]
-    model.train_gsn(3)  # GSN updates only
+    gsn_training = GSNTrainingCallback(model.gsn_learning_rate, batch_size=16)
+    gsn_training.init_callback(model)
+    gsn_training.train_gsn(3)  # GSN updates only
     after = [*policy.actor.parameters(), *policy.critic.parameters()]
     assert all(th.equal(a, b) for a, b in zip(agents_mid, after, strict=False))
     assert not all(th.equal(a, b) for a, b in zip(gsn_before, policy.gsn.parameters(), strict=False))
@@ -133,8 +136,8 @@ def test_gsn_reward_statistics_are_the_moments_of_all_teammate_rewards() -> None
 def test_gsn_is_trained_once_per_agent_update() -> None:
     model = make_model("GSN", learning_starts=10)
     model.learn(100)
-    assert model._n_updates > 0
-    assert model._gsn_updates == model._n_updates
+    assert model.n_updates > 0
+    assert model.gsn_callback.n_updates == model.n_updates
 
 
 @pytest.mark.parametrize("method", METHODS)

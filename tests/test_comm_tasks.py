@@ -99,9 +99,9 @@ def test_learn_300_steps_every_method_and_task(method: str, env_id: str) -> None
     )
     model.learn(300)
     assert model.num_timesteps == 300
-    assert model._n_updates > 0
+    assert model.n_updates > 0
     if method == "GSN":
-        assert model._gsn_updates == model._n_updates
+        assert model.gsn_callback.n_updates == model.n_updates
     result = evaluate_team(model, env_id, n_episodes=3, seed=1, env_kwargs={"max_steps": 10})
     assert result.team_returns.shape == (3,) and np.isfinite(result.team_returns).all()
 

@@ -5,21 +5,24 @@ action, ``r̂ = R(M(o_sender; θm), a_teammate; θr)`` (eq. 1); the hidden layer
 is the message. It is trained by regression on joint replay tuples
 ``(o_sender, a_teammate, r_teammate)`` (eq. 2), one update per agent update, with Adam and a small
 learning rate (the paper used 1e-6).
+
+Design: the GSN is trained apart from the agents, by :class:`GSNTrainingCallback` (SB3's order of
+extension: a callback before a new algorithm). The callback owns the GSN's update and learning-rate
+schedule; the algorithm only builds the network (through the GSN method object) and adds the
+callback.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
+import numpy as np
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.type_aliases import Schedule
+from stable_baselines3.common.utils import FloatSchedule
 from torch import nn
 from torch.nn import functional as F
 
 from sb3_comm.common.networks import AgentMLPs
-
-if TYPE_CHECKING:
-    from sb3_comm.comm_ddpg.comm_ddpg import CommDDPG
 
 __all__ = ["GSNTrainingCallback", "GroundedSemanticNetwork"]
 
@@ -127,17 +130,73 @@ class GSNTrainingCallback(BaseCallback):
     """Trains the model's GSN with one update per agent update (paper §3, "Training").
 
     :class:`~sb3_comm.CommDDPG` adds this callback itself when its method is ``"GSN"``. SB3 calls
-    ``train()`` between rollouts; at the start of the next rollout this callback performs as many
-    GSN updates as the agents had, on freshly sampled joint tuples.
+    ``train()`` between rollouts; at the start of the next rollout (and at the end of training)
+    this callback performs as many GSN updates as the agents had since, each on a freshly sampled
+    batch of joint tuples ``(o_sender, a_teammate, r_teammate)``. It reads only the model's public
+    ``policy.gsn``, ``replay_buffer``, ``n_updates`` and ``progress_remaining``.
+
+    :param learning_rate: GSN learning rate, or a schedule of the remaining progress (1 -> 0).
+    :param batch_size: joint tuples per update.
+    :param max_grad_norm: gradient clipping (0 or None: none).
+    :param verbose: 0 silent, 1 info.
     """
 
-    model: CommDDPG
+    def __init__(
+        self,
+        learning_rate: float | Schedule = 1e-3,
+        batch_size: int = 64,
+        max_grad_norm: float | None = 10.0,
+        verbose: int = 0,
+    ) -> None:
+        super().__init__(verbose)
+        self.learning_rate = learning_rate
+        self.lr_schedule = FloatSchedule(learning_rate)
+        self.batch_size = batch_size
+        self.max_grad_norm = max_grad_norm
+        self.n_updates = 0
+        """GSN updates performed by this callback."""
+        self.agent_updates_matched = 0
+        """The model's agent-update count that the GSN updates have caught up with."""
+
+    def _init_callback(self) -> None:
+        # Agent updates made before this callback joined (an earlier learn() call, a loaded
+        # model) were matched then.
+        self.agent_updates_matched = self.model.n_updates  # type: ignore[attr-defined]
 
     def _on_rollout_start(self) -> None:
-        self.model.train_gsn(self.model._n_updates - self.model._gsn_updates)
+        pending = self.model.n_updates - self.agent_updates_matched  # type: ignore[attr-defined]
+        self.train_gsn(pending)
 
     def _on_training_end(self) -> None:
         self._on_rollout_start()
 
     def _on_step(self) -> bool:
         return True
+
+    def train_gsn(self, n_updates: int) -> None:
+        """``n_updates`` GSN regressions on uniformly sampled joint tuples (paper eq. 2).
+
+        :param n_updates: number of gradient steps.
+        """
+        gsn: GroundedSemanticNetwork | None = self.model.policy.gsn  # type: ignore[union-attr]
+        replay_buffer = self.model.replay_buffer  # type: ignore[attr-defined]
+        if gsn is None or n_updates <= 0 or replay_buffer is None:
+            return
+        gsn.train(True)
+        lr = self.lr_schedule(self.model.progress_remaining)  # type: ignore[attr-defined]
+        for group in gsn.optimizer.param_groups:  # type: ignore[union-attr]
+            group["lr"] = lr
+        self.logger.record("gsn/learning_rate", lr)
+        losses = []
+        for _ in range(n_updates):
+            data = replay_buffer.sample(self.batch_size)
+            loss = gsn.loss(data.observations, data.actions, data.rewards)
+            gsn.optimizer.zero_grad()  # type: ignore[union-attr]
+            loss.backward()
+            if self.max_grad_norm:
+                th.nn.utils.clip_grad_norm_(gsn.parameters(), self.max_grad_norm)
+            gsn.optimizer.step()  # type: ignore[union-attr]
+            losses.append(loss.item())
+            self.n_updates += 1
+        self.agent_updates_matched += n_updates
+        self.logger.record("gsn/loss", float(np.mean(losses)))

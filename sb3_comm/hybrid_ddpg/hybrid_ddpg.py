@@ -1,0 +1,429 @@
+"""HybridDDPG: DDPG in a parameterised action space, for one agent.
+
+Paper: Hausknecht & Stone, "Deep Reinforcement Learning in Parameterized Action Space" (ICLR
+2016). Original code: github.com/mhauskn/dqn-hfo, C++/Caffe.
+
+A TD3 subclass (with TD3's twin critics, delay and target smoothing off by default, it is DDPG)
+with what the ICLR agent added:
+
+* hybrid heads: the actor outputs action scores and their parameters; bounded outputs are kept in
+  range by **inverting gradients** (:func:`~sb3_comm.common.networks.inverting_gradients`);
+* **ε-exploration**: with probability ε the action scores and parameters are drawn uniformly;
+* **Monte-Carlo mixing** of the critic target, ``y = β·G_t + (1 − β)·(r + γ Q'(s', μ'(s')))``,
+  with the returns kept by :class:`~sb3_comm.common.buffers.MonteCarloReplayBuffer`;
+* a separate actor learning rate (or schedule) and gradient clipping.
+
+:class:`~sb3_comm.CommDDPG` extends it to two agents that learn to communicate.
+"""
+
+from __future__ import annotations
+
+import numbers
+from typing import Any, ClassVar, TypeVar
+
+import numpy as np
+import torch as th
+from gymnasium import spaces
+from stable_baselines3 import TD3
+from stable_baselines3.common.noise import ActionNoise
+from stable_baselines3.common.policies import BasePolicy
+from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule
+from stable_baselines3.common.utils import FloatSchedule, LinearSchedule, obs_as_tensor, polyak_update
+from torch.nn import functional as F
+
+from sb3_comm.common.buffers import MonteCarloReplayBuffer, MonteCarloReplayBufferSamples
+from sb3_comm.common.layout import HybridActionLayout
+from sb3_comm.common.networks import inverting_gradients
+from sb3_comm.hybrid_ddpg.policies import HybridPolicy
+
+__all__ = ["HybridDDPG", "check_schedule"]
+
+SelfHybridDDPG = TypeVar("SelfHybridDDPG", bound="HybridDDPG")
+
+
+def check_schedule(name: str, value: Any) -> float | Schedule:
+    """A learning rate as SB3 takes it: a number, or a callable of the remaining progress.
+
+    :param name: the parameter's name (for the error message).
+    :param value: the value given.
+    :raises TypeError: for anything else, e.g. the string ``"lin_1e-4"`` of a config file.
+    """
+    if (isinstance(value, numbers.Real) and not isinstance(value, bool)) or callable(value):
+        return value
+    hint = ""
+    if isinstance(value, str):
+        hint = (
+            "; strings such as 'lin_1e-4' or '1e-4' belong in hyperparameter files, which "
+            "sb3_comm.config converts (e.g. sb3_comm.common.hyperparams.coerce_value)"
+        )
+    raise TypeError(
+        f"{name} must be a float or a callable schedule (e.g. "
+        f"stable_baselines3.common.utils.LinearSchedule), got {value!r}{hint}"
+    )
+
+
+class HybridDDPG(TD3):
+    """The ICLR 2016 parameterised-action DDPG for a single agent (a TD3 subclass).
+
+    Accepts a Gymnasium environment with 1-D ``Box`` observations and actions; a ``hybrid_layout``
+    attribute (or ``metadata["hybrid_action"]``) marks the HFO-style action scores and parameters.
+
+    :param policy: ``"MlpPolicy"`` (or a :class:`HybridPolicy` subclass).
+    :param env: the environment (an id, an env, or a VecEnv).
+    :param learning_rate: critic learning rate (or schedule).
+    :param actor_learning_rate: actor learning rate or schedule (reference code: 1e-5).
+    :param buffer_size: replay size in transitions.
+    :param learning_starts: transitions collected with full exploration before learning.
+    :param batch_size: transitions per update.
+    :param tau: soft target update rate.
+    :param gamma: discount factor.
+    :param train_freq: update the model every ``train_freq`` steps.
+    :param gradient_steps: updates after each rollout (-1: as many as steps collected).
+    :param exploration: ``"epsilon"`` (ICLR 2016: with probability ε take uniformly random action
+        scores and parameters) or ``"gaussian"`` (Gaussian noise on every output).
+    :param exploration_initial_eps: ε at the start.
+    :param exploration_final_eps: ε after annealing.
+    :param exploration_fraction: fraction of training over which ε is annealed linearly.
+    :param gaussian_noise_std: standard deviation of the Gaussian exploration (scaled units).
+    :param mc_mixing: β of the critic target ``y = β·G_t + (1 − β)·(r + γ Q'(s', μ'(s')))``
+        (reference code and default: 0.5).
+    :param max_grad_norm: gradient clipping of actor and critic (reference: 10).
+    :param action_noise: optional SB3 action noise added on top of the exploration.
+    :param replay_buffer_class: a :class:`MonteCarloReplayBuffer` subclass (None: that class).
+    :param replay_buffer_kwargs: extra arguments of the replay buffer.
+    :param policy_delay: actor update every ``policy_delay`` critic updates (1: DDPG).
+    :param target_policy_noise: TD3 target smoothing noise (0: DDPG).
+    :param target_noise_clip: TD3 clip of that noise.
+    :param stats_window_size: episodes averaged in the rollout logs.
+    :param tensorboard_log: TensorBoard log folder.
+    :param policy_kwargs: extra arguments of the policy (``net_arch``, ``n_critics``, ...).
+    :param verbose: 0 silent, 1 info, 2 debug.
+    :param seed: random seed.
+    :param device: torch device.
+    :param _init_setup_model: build the networks now.
+    """
+
+    policy_aliases: ClassVar[dict[str, type[BasePolicy]]] = {"MLPPOLICY": HybridPolicy, "NONE": HybridPolicy}
+    policy: HybridPolicy
+    replay_buffer: MonteCarloReplayBuffer
+
+    def __init__(
+        self,
+        policy: str | type[HybridPolicy],
+        env: GymEnv | str,
+        learning_rate: float | Schedule = 1e-3,
+        actor_learning_rate: float | Schedule = 1e-4,
+        buffer_size: int = 200_000,
+        learning_starts: int = 1_000,
+        batch_size: int = 64,
+        tau: float = 0.005,
+        gamma: float = 0.99,
+        train_freq: int | tuple[int, str] = 1,
+        gradient_steps: int = 1,
+        exploration: str = "epsilon",
+        exploration_initial_eps: float = 1.0,
+        exploration_final_eps: float = 0.1,
+        exploration_fraction: float = 0.2,
+        gaussian_noise_std: float = 0.1,
+        mc_mixing: float = 0.5,
+        max_grad_norm: float = 10.0,
+        action_noise: ActionNoise | None = None,
+        replay_buffer_class: type[MonteCarloReplayBuffer] | None = None,
+        replay_buffer_kwargs: dict[str, Any] | None = None,
+        policy_delay: int = 1,
+        target_policy_noise: float = 0.0,
+        target_noise_clip: float = 0.5,
+        stats_window_size: int = 100,
+        tensorboard_log: str | None = None,
+        policy_kwargs: dict[str, Any] | None = None,
+        verbose: int = 0,
+        seed: int | None = None,
+        device: th.device | str = "auto",
+        _init_setup_model: bool = True,
+    ) -> None:
+        if exploration not in ("epsilon", "gaussian"):
+            raise ValueError(f"exploration must be 'epsilon' or 'gaussian', got {exploration!r}")
+        if not 0.0 <= mc_mixing <= 1.0:
+            raise ValueError(f"mc_mixing (β) must lie in [0, 1], got {mc_mixing}")
+        learning_rate = check_schedule("learning_rate", learning_rate)
+        self.actor_learning_rate = check_schedule("actor_learning_rate", actor_learning_rate)
+        self.exploration = exploration
+        self.exploration_initial_eps = exploration_initial_eps
+        self.exploration_final_eps = exploration_final_eps
+        self.exploration_fraction = exploration_fraction
+        self.gaussian_noise_std = gaussian_noise_std
+        self.mc_mixing = mc_mixing
+        self.max_grad_norm = max_grad_norm
+        self.exploration_rate = exploration_initial_eps
+        super().__init__(
+            policy,
+            env,
+            learning_rate=learning_rate,
+            buffer_size=buffer_size,
+            learning_starts=learning_starts,
+            batch_size=batch_size,
+            tau=tau,
+            gamma=gamma,
+            train_freq=train_freq,
+            gradient_steps=gradient_steps,
+            action_noise=action_noise,
+            replay_buffer_class=replay_buffer_class or MonteCarloReplayBuffer,
+            replay_buffer_kwargs=replay_buffer_kwargs,
+            policy_delay=policy_delay,
+            target_policy_noise=target_policy_noise,
+            target_noise_clip=target_noise_clip,
+            stats_window_size=stats_window_size,
+            tensorboard_log=tensorboard_log,
+            policy_kwargs=policy_kwargs,
+            verbose=verbose,
+            seed=seed,
+            device=device,
+            _init_setup_model=False,
+        )
+        if _init_setup_model:
+            self._setup_model()
+
+    # ----------------------------------------------------------------------------- set-up --
+    def _get_policy_from_name(self, policy_name: str) -> type[BasePolicy]:
+        if policy_name.upper() in self.policy_aliases:
+            return self.policy_aliases[policy_name.upper()]
+        raise ValueError(f"Unknown policy {policy_name!r}; accepted: {sorted(self.policy_aliases)}")
+
+    def _environment_policy_kwargs(self) -> dict[str, Any]:
+        """What the policy learns from the environment: the hybrid action layout."""
+        if self.env is None:
+            return {"hybrid_layout": self.policy_kwargs.get("hybrid_layout")}
+        obs_space, action_space = self.observation_space, self.action_space
+        if not (
+            isinstance(obs_space, spaces.Box)
+            and len(obs_space.shape) == 1
+            and isinstance(action_space, spaces.Box)
+            and len(action_space.shape) == 1
+        ):
+            raise ValueError(
+                f"HybridDDPG needs 1-D Box observation and action spaces; got {obs_space} and {action_space}"
+            )
+        try:
+            hybrid = self.env.get_attr("hybrid_layout", indices=[0])[0]
+        except AttributeError:
+            hybrid = None
+        if hybrid is None:
+            metadata = self.env.get_attr("metadata", indices=[0])[0] or {}
+            hybrid = metadata.get("hybrid_action")
+        return {"hybrid_layout": HybridActionLayout.from_dict(hybrid)}
+
+    def _explorable_entries(self) -> np.ndarray:
+        """Which entries of an action exploration may randomise (all of them)."""
+        return np.ones(self.action_space.shape[-1], dtype=bool)  # type: ignore[index]
+
+    def _upgrade_file_of_0_1_0(self) -> None:
+        """Settings loaded from a file of sb3-comm 0.1.0, when HybridDDPG was a one-agent CommDDPG."""
+        layout = self.policy_kwargs.get("comm_layout")
+        if layout is None or layout.n_agents != 1:  # a new file, or a team's (CommDDPG)
+            return
+        policy_kwargs = {**self.policy_kwargs}
+        del policy_kwargs["comm_layout"]
+        policy_kwargs.pop("share_parameters", None)
+        self.policy_kwargs = {**policy_kwargs, "hybrid_layout": layout.hybrid}
+        self.policy_class = HybridPolicy
+        self.replay_buffer_class = MonteCarloReplayBuffer
+        self.replay_buffer_kwargs = {k: v for k, v in self.replay_buffer_kwargs.items() if k != "n_agents"}
+
+    def _setup_model(self) -> None:
+        self._upgrade_file_of_0_1_0()
+        # Copies: the caller's dicts must not learn this environment's layout.
+        from_env = self._environment_policy_kwargs()
+        self.policy_kwargs = {**self.policy_kwargs, **from_env}
+        self.replay_buffer_kwargs = {
+            **self.replay_buffer_kwargs,
+            "gamma": self.gamma,
+            "store_mc_returns": self.mc_mixing > 0,
+        }
+        super()._setup_model()
+        self.actor_lr_schedule = FloatSchedule(self.actor_learning_rate)
+        self.actor.optimizer.param_groups[0]["lr"] = self.actor_lr_schedule(1.0)
+        self.exploration_schedule = LinearSchedule(
+            self.exploration_initial_eps, self.exploration_final_eps, self.exploration_fraction
+        )
+        self._explorable = self._explorable_entries()
+
+    # ------------------------------------------------------------------- public counters --
+    @property
+    def n_updates(self) -> int:
+        """Agent (critic) updates so far, over all ``learn`` calls."""
+        return self._n_updates
+
+    @property
+    def progress_remaining(self) -> float:
+        """Remaining progress of the current ``learn`` call, 1 -> 0 (the argument of schedules)."""
+        return self._current_progress_remaining
+
+    # ------------------------------------------------------------------------ exploration --
+    def _on_step(self) -> None:
+        self.exploration_rate = self.exploration_schedule(self._current_progress_remaining)
+        self.logger.record("rollout/exploration_rate", self.exploration_rate)
+
+    def _sample_action(
+        self, learning_starts: int, action_noise: ActionNoise | None = None, n_envs: int = 1
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Policy action plus exploration, in the environment's units and SB3's scaled units.
+
+        ε-greedy (ICLR 2016): with probability ε an action's scores and parameters are drawn
+        uniformly (per agent row, and only the explorable entries); otherwise the policy's.
+        Before ``learning_starts`` ε = 1.
+        """
+        obs = obs_as_tensor(self._last_obs, self.device)  # type: ignore[arg-type]
+        with th.no_grad():
+            scaled = self.policy._predict(obs).cpu().numpy()
+        # One action row per agent: (n_envs, action_dim) or (n_envs, n_agents, action_dim).
+        rows = scaled.reshape(n_envs, *self.action_space.shape)  # type: ignore[misc]
+        warmup = self.num_timesteps < learning_starts
+        if self.exploration == "epsilon" or warmup:
+            epsilon = 1.0 if warmup else self.exploration_rate
+            pick = np.random.random((*rows.shape[:-1], 1)) < epsilon
+            random_rows = np.random.uniform(-1.0, 1.0, size=rows.shape).astype(np.float32)
+            rows = np.where(pick & self._explorable, random_rows, rows)
+        else:
+            noise = np.random.normal(0.0, self.gaussian_noise_std, size=rows.shape).astype(np.float32)
+            rows = np.clip(rows + noise * self._explorable, -1.0, 1.0)
+        if action_noise is not None:
+            extra = np.asarray(action_noise()).reshape(-1, *self.action_space.shape)  # type: ignore[misc]
+            rows = np.clip(rows + extra * self._explorable, -1.0, 1.0)
+        buffer_action = rows.reshape(scaled.shape)
+        return self.policy.unscale_action(buffer_action), buffer_action
+
+    # ------------------------------------------------------------------------------ train --
+    def train(self, gradient_steps: int, batch_size: int = 100) -> None:
+        """Critic and actor updates, as in the ICLR 2016 agent (plus the team's message hooks).
+
+        One update: sample; critic target ``y = r + γ(1 − d) Q'(s', μ'(s'))`` (mixed with the
+        Monte-Carlo return where β > 0); critic loss; actor loss, by the critic's action gradient
+        passed through :meth:`actor_output_gradients`; soft target updates.
+        """
+        self.policy.set_training_mode(True)
+        self._update_learning_rate([self.critic.optimizer])
+        for group in self.actor.optimizer.param_groups:
+            group["lr"] = self.actor_lr_schedule(self._current_progress_remaining)
+        policy = self.policy
+        critic_losses: list[float] = []
+        actor_losses: list[float] = []
+        actor_stats: dict[str, list[float]] = {}
+        for _ in range(gradient_steps):
+            self._n_updates += 1
+            # sample
+            data = self.replay_buffer.sample(batch_size)  # type: ignore[union-attr]
+            obs, actions, next_obs = data.observations, data.actions, data.next_observations
+
+            # critic target
+            with th.no_grad():
+                next_out = policy.actor_outputs(next_obs, target=True)
+                if self.target_policy_noise > 0:
+                    noise = th.randn_like(next_out) * self.target_policy_noise
+                    next_out = next_out + noise.clamp(-self.target_noise_clip, self.target_noise_clip)
+                next_out = next_out.clamp(-1.0, 1.0)
+                next_q = th.stack(policy.q_values(next_obs, next_out, target=True)).min(dim=0).values
+                target_q = data.rewards + (1.0 - data.dones) * self.gamma * next_q
+                if self.mc_mixing > 0:
+                    mixed = self.mc_mixing * data.mc_returns + (1.0 - self.mc_mixing) * target_q
+                    target_q = th.where(data.mc_valid.bool(), mixed, target_q)
+
+            # critic loss
+            critic_loss = sum(F.mse_loss(q, target_q) for q in policy.q_values(obs, actions))
+            assert isinstance(critic_loss, th.Tensor)
+            self._optimize(self.critic, critic_loss)
+            critic_losses.append(critic_loss.item())
+
+            if self._n_updates % self.policy_delay != 0:
+                continue
+
+            # actor loss: a surrogate whose gradient w.r.t. the actor outputs is exactly -grad
+            out = policy.actor_outputs(obs)
+            grad, own_q = self.actor_output_gradients(obs, out.detach(), next_obs, data.dones)
+            actor_surrogate = -(out * grad).sum(dim=-1).mean()
+            self._optimize(self.actor, actor_surrogate)
+            actor_losses.append(-own_q.mean().item())
+            for key, value in self._actor_step_stats(data, out, grad).items():
+                actor_stats.setdefault(key, []).append(value)
+
+            # soft update
+            polyak_update(self.critic.parameters(), self.critic_target.parameters(), self.tau)
+            polyak_update(self.actor.parameters(), self.actor_target.parameters(), self.tau)
+
+        self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
+        self.logger.record("train/critic_loss", float(np.mean(critic_losses)))
+        if actor_losses:
+            self.logger.record("train/actor_loss", float(np.mean(actor_losses)))
+        for key, values in actor_stats.items():
+            self.logger.record(key, float(np.mean(values)))
+
+    def critic_action_gradients(self, obs: th.Tensor, out: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        """``dQ/d out`` of the (first) critic at the actor's outputs, and that critic's ``Q``.
+
+        :param obs: observations.
+        :param out: bounded actor outputs (detached).
+        :return: ``grad`` shaped like ``out`` and ``Q`` (detached).
+        """
+        current = out.detach().requires_grad_(True)
+        own_q = self.policy.q_values(obs, current)[0]
+        grad = th.autograd.grad(own_q.sum(), current)[0]
+        return grad, own_q.detach()
+
+    def invert_bounded_gradients(self, grad: th.Tensor, out: th.Tensor) -> th.Tensor:
+        """Inverting gradients on hybrid heads (ICLR 2016, eq. 11); ``tanh`` heads need none."""
+        return inverting_gradients(grad, out) if self.policy.hybrid else grad
+
+    def actor_output_gradients(
+        self, obs: th.Tensor, out: th.Tensor, next_obs: th.Tensor, dones: th.Tensor
+    ) -> tuple[th.Tensor, th.Tensor]:
+        """Ascent direction for every actor output, and the critic's Q.
+
+        ``dQ/da`` at the actor's current action, through inverting gradients on bounded hybrid
+        outputs.
+
+        :param obs: observations ``(B, obs_dim)``.
+        :param out: bounded actor outputs (detached).
+        :param next_obs: next observations (unused here; a team's messages need them).
+        :param dones: ``(B, 1)`` terminal flags (unused here).
+        :return: ``grad`` shaped like ``out`` and ``own_q``.
+        """
+        grad, own_q = self.critic_action_gradients(obs, out)
+        return self.invert_bounded_gradients(grad, out), own_q
+
+    def _actor_step_stats(
+        self, data: MonteCarloReplayBufferSamples, out: th.Tensor, grad: th.Tensor
+    ) -> dict[str, float]:
+        """Extra values logged (as means) after each actor update; none for one agent."""
+        return {}
+
+    def _optimize(self, module: th.nn.Module, loss: th.Tensor) -> None:
+        module.optimizer.zero_grad()  # type: ignore[union-attr]
+        loss.backward()
+        if self.max_grad_norm:
+            th.nn.utils.clip_grad_norm_(module.parameters(), self.max_grad_norm)
+        module.optimizer.step()  # type: ignore[union-attr]
+
+    # ---------------------------------------------------------------------- save / load --
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "_explorable"]
+
+    def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
+        return ["policy", "actor.optimizer", "critic.optimizer"], []
+
+    def learn(
+        self: SelfHybridDDPG,
+        total_timesteps: int,
+        callback: MaybeCallback = None,
+        log_interval: int = 4,
+        tb_log_name: str = "HybridDDPG",
+        reset_num_timesteps: bool = True,
+        progress_bar: bool = False,
+    ) -> SelfHybridDDPG:
+        """Train for ``total_timesteps`` environment steps, as in SB3."""
+        return super().learn(
+            total_timesteps=total_timesteps,
+            callback=callback,
+            log_interval=log_interval,
+            tb_log_name=tb_log_name,
+            reset_num_timesteps=reset_num_timesteps,
+            progress_bar=progress_bar,
+        )

@@ -1,0 +1,193 @@
+"""Actor-critic policy of the parameterised-action DDPG (Hausknecht & Stone, ICLR 2016).
+
+The actor outputs the whole action vector (for HFO: 3 action scores and 5 parameters); the
+environment executes the argmax score with its parameters. The critic sees the observation and
+*all* actor outputs. Bounded hybrid outputs are linear and kept in range with inverting gradients
+during training; a plain ``Box`` action uses ``tanh`` heads as SB3's TD3 does. Everything works in
+SB3's scaled action space [-1, 1]; ``predict`` rescales to the environment's bounds.
+
+Tensors keep SB3's shapes: observations ``(B, obs_dim)``, Q-values ``(B, 1)``. The operations
+act on the last axis only, so :class:`~sb3_comm.comm_ddpg.policies.CommPolicy` reuses them on the
+agent rows ``(B, n_agents, width)`` of a team.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from typing import Any
+
+import torch as th
+from gymnasium import spaces
+from stable_baselines3.common.policies import BasePolicy
+from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
+from torch import nn
+
+from sb3_comm.common.layout import HybridActionLayout
+from sb3_comm.common.networks import mlp
+
+__all__ = ["HybridPolicy"]
+
+
+class HybridPolicy(BasePolicy):
+    """Actor, critic(s) and their targets for one agent with a (possibly parameterised) action.
+
+    :param observation_space: ``Box(obs_dim)``.
+    :param action_space: ``Box(action_dim)``.
+    :param lr_schedule: critic learning-rate schedule (the algorithm sets the actor's).
+    :param hybrid_layout: the parameterised-action layout (action scores, then parameters), or
+        None for a plain ``Box`` action (``tanh`` heads).
+    :param net_arch: hidden widths of actor and critic, or a dict with keys ``pi`` and ``qf``.
+    :param activation_fn: hidden activation (leaky ReLU, slope 0.01, as the reference code).
+    :param n_critics: 1 for DDPG, 2 for TD3's clipped double Q.
+    :param optimizer_class: optimizer of actor and critic.
+    :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
+    """
+
+    actor: nn.Module
+    actor_target: nn.Module
+    critic: nn.ModuleList
+    critic_target: nn.ModuleList
+
+    def __init__(
+        self,
+        observation_space: spaces.Box,
+        action_space: spaces.Box,
+        lr_schedule: Schedule,
+        hybrid_layout: HybridActionLayout | None = None,
+        net_arch: list[int] | dict[str, list[int]] | None = None,
+        activation_fn: type[nn.Module] = nn.LeakyReLU,
+        n_critics: int = 1,
+        optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
+        optimizer_kwargs: dict[str, Any] | None = None,
+    ) -> None:
+        super().__init__(
+            observation_space,
+            action_space,
+            optimizer_class=optimizer_class,
+            optimizer_kwargs=optimizer_kwargs,
+            squash_output=True,
+        )
+        if net_arch is None:
+            net_arch = [256, 256]
+        self.net_arch = net_arch
+        self.actor_arch, self.critic_arch = (
+            (net_arch["pi"], net_arch["qf"]) if isinstance(net_arch, dict) else (net_arch, net_arch)
+        )
+        self.activation_fn = activation_fn
+        self.n_critics = n_critics
+        self.hybrid_layout = hybrid_layout
+        self.hybrid = hybrid_layout is not None
+        self.obs_dim = observation_space.shape[-1]
+        self.env_action_dim = self._env_action_dim()
+        self.actor_out_dim = self._actor_out_dim()
+        self._build(lr_schedule)
+
+    # ------------------------------------------------------------------------------ build --
+    def _env_action_dim(self) -> int:
+        """Length of the part of an action that acts on the environment."""
+        return self.action_space.shape[-1]  # type: ignore[index]
+
+    def _actor_out_dim(self) -> int:
+        """Number of actor outputs (the critic sees all of them)."""
+        return self.env_action_dim
+
+    def make_actor(self) -> nn.Module:
+        """``obs -> actor outputs`` (raw, see :meth:`bound_outputs`)."""
+        return mlp(self.obs_dim, self.actor_out_dim, self.actor_arch, self.activation_fn)
+
+    def make_critic(self) -> nn.Module:
+        """``[obs | actor outputs] -> Q``."""
+        return mlp(self.obs_dim + self.actor_out_dim, 1, self.critic_arch, self.activation_fn)
+
+    def _build(self, lr_schedule: Schedule) -> None:
+        """Actor, critics, their targets and the optimizers (in this order: it fixes the seeding)."""
+        self.actor, self.actor_target = self.make_actor(), self.make_actor()
+        self.critic = nn.ModuleList(self.make_critic() for _ in range(self.n_critics))
+        self.critic_target = nn.ModuleList(self.make_critic() for _ in range(self.n_critics))
+        self.actor_target.load_state_dict(self.actor.state_dict())
+        self.critic_target.load_state_dict(self.critic.state_dict())
+        self.actor_target.requires_grad_(False)
+        self.critic_target.requires_grad_(False)
+        self.actor.optimizer = self.optimizer_class(  # type: ignore[assignment]
+            self.actor.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
+        )
+        self.critic.optimizer = self.optimizer_class(  # type: ignore[assignment]
+            self.critic.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
+        )
+
+    # ---------------------------------------------------------------------------- helpers --
+    def bound_outputs(self, out: th.Tensor) -> th.Tensor:
+        """Raw actor outputs to actions in [-1, 1]: ``tanh`` for plain Box heads, identity otherwise.
+
+        Hybrid heads are linear: inverting gradients keep them in range during training, and
+        :meth:`_predict` clips what is executed.
+        """
+        return out if self.hybrid else th.tanh(out)
+
+    def actor_outputs(self, obs: th.Tensor, target: bool = False) -> th.Tensor:
+        """Bounded actor outputs ``(..., actor_out_dim)``."""
+        actor = self.actor_target if target else self.actor
+        return self.bound_outputs(actor(obs))
+
+    def critic_value(self, critic: nn.Module, x: th.Tensor) -> th.Tensor:
+        """One critic's output on ``[obs | actions]`` rows: ``(B, 1)`` as in SB3."""
+        return critic(x)
+
+    def q_values(self, obs: th.Tensor, actions: th.Tensor, target: bool = False) -> list[th.Tensor]:
+        """Each critic's ``Q(o, a)``.
+
+        :param obs: observations ``(B, obs_dim)``.
+        :param actions: bounded actor outputs, or actions as stored in the replay buffer (entries
+            past ``actor_out_dim`` are not seen by the critic).
+        :param target: use the target critics.
+        """
+        critics = self.critic_target if target else self.critic
+        x = th.cat([obs, actions[..., : self.actor_out_dim]], dim=-1)
+        return [self.critic_value(critic, x) for critic in critics]
+
+    # ---------------------------------------------------------------------------- SB3 API --
+    def forward(self, obs: th.Tensor, deterministic: bool = True) -> th.Tensor:
+        """Deterministic scaled actions (same as :meth:`_predict`)."""
+        return self._predict(obs, deterministic)
+
+    def _predict(self, observation: PyTorchObs, deterministic: bool = True) -> th.Tensor:
+        return self.actor_outputs(observation).clamp(-1.0, 1.0)  # type: ignore[arg-type]
+
+    def set_training_mode(self, mode: bool) -> None:
+        """Train/eval mode of the trained networks (targets stay in eval mode)."""
+        self.actor.train(mode)
+        self.critic.train(mode)
+        self.training = mode
+
+    def load_state_dict(
+        self, state_dict: Mapping[str, Any], strict: bool = True, assign: bool = False
+    ) -> Any:
+        """``nn.Module.load_state_dict``, also reading files of sb3-comm 0.1.0.
+
+        Up to 0.1.0 the single-agent networks were per-agent wrappers (keys ``actor.nets.0.*``);
+        they are the plain networks (``actor.*``) now.
+        """
+        own = self.state_dict()
+        renamed = {}
+        for key, value in state_dict.items():
+            legacy = re.sub(r"\.nets\.0\.", ".", key, count=1)
+            renamed[legacy if key not in own and legacy in own else key] = value
+        return super().load_state_dict(renamed, strict=strict, assign=assign)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data.update(
+            hybrid_layout=self.hybrid_layout,
+            net_arch=self.net_arch,
+            activation_fn=self.activation_fn,
+            n_critics=self.n_critics,
+            lr_schedule=self._dummy_schedule,
+            optimizer_class=self.optimizer_class,
+            optimizer_kwargs=self.optimizer_kwargs,
+        )
+        return data
+
+    @staticmethod
+    def _dummy_schedule(_: float) -> float:
+        return 0.0
