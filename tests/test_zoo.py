@@ -12,7 +12,7 @@ import pytest
 
 from sb3_comm import CommDDPG
 from sb3_comm.config import CONFIG_DIR
-from sb3_comm.zoo import convert_commddpg_params, main, prepare_args, sample_commddpg_params
+from sb3_comm.zoo import ZOO_ALGOS, convert_commddpg_params, main, prepare_args, sample_commddpg_params
 
 TINY = ["-params", "n_envs:2", "learning_starts:64", "buffer_size:2000", "batch_size:32"]
 
@@ -86,14 +86,21 @@ def test_sampler_gives_commddpg_arguments() -> None:
     assert model.batch_size == 64
 
 
-def test_packaged_config_and_lin_schedules_are_used() -> None:
+def test_packaged_config_and_lin_schedules_are_used(tmp_path: Path) -> None:
     args = prepare_args("train", ["--env", "BlindSoccer-v0", "--method", "rial"])
     assert args[args.index("-conf") + 1] == str(CONFIG_DIR / "rial.yml")
     assert args[:2] == ["--algo", "commddpg"]
-    model = CommDDPG("GSN", "GuessMyNumber-v0", actor_learning_rate="lin_1e-4", device="cpu")
-    assert model.actor_lr_schedule(1.0) == pytest.approx(1e-4) and model.actor_lr_schedule(
-        0.5
-    ) == pytest.approx(5e-5)
+    # rl-zoo3 hands the file's values over as written: the zoo's class converts them, when it
+    # builds a model and when it loads one with extra settings (rl-zoo3's -i).
+    zoo_class = ZOO_ALGOS["commddpg"]
+    model = zoo_class("GSN", "GuessMyNumber-v0", actor_learning_rate="lin_1e-4", device="cpu")
+    assert model.actor_lr_schedule(1.0) == pytest.approx(1e-4)
+    assert model.actor_lr_schedule(0.5) == pytest.approx(5e-5)
+    model.save(tmp_path / "model.zip")
+    loaded = zoo_class.load(tmp_path / "model.zip", device="cpu", actor_learning_rate="lin_2e-4", gamma="0.9")
+    assert loaded.actor_lr_schedule(1.0) == pytest.approx(2e-4) and loaded.gamma == pytest.approx(0.9)
+    with pytest.raises(TypeError, match="float or a callable"):
+        CommDDPG("GSN", "GuessMyNumber-v0", actor_learning_rate="lin_1e-4", device="cpu")
 
 
 @pytest.mark.parametrize(

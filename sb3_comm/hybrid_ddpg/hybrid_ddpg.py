@@ -54,7 +54,7 @@ def check_schedule(name: str, value: Any) -> float | Schedule:
     if isinstance(value, str):
         hint = (
             "; strings such as 'lin_1e-4' or '1e-4' belong in hyperparameter files, which "
-            "sb3_comm.config converts (e.g. sb3_comm.common.hyperparams.coerce_value)"
+            "sb3_comm.config converts (sb3_comm.common.hyperparams.algorithm_kwargs)"
         )
     raise TypeError(
         f"{name} must be a float or a callable schedule (e.g. "
