@@ -12,7 +12,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import torch as th
 from gymnasium import spaces
 
 from sb3_comm.common.buffers import MonteCarloReplayBuffer
@@ -24,43 +23,16 @@ __all__ = ["JointReplayBuffer", "JointReplayBufferSamples"]
 class JointReplayBuffer(MonteCarloReplayBuffer):
     """Replay of joint transitions of ``n_envs`` parallel games; agent rows on axis 1 of a sample.
 
-    :param buffer_size: number of transitions kept (over all envs, as in SB3).
-    :param observation_space: stacked rows ``(n_agents, obs_dim)``.
-    :param action_space: stacked rows ``(n_agents, action_dim)``.
-    :param device: torch device of the samples.
-    :param n_envs: number of parallel games.
+    Takes the arguments of :class:`~sb3_comm.common.buffers.MonteCarloReplayBuffer` (its
+    observation and action spaces are the stacked rows ``(n_agents, obs_dim)`` and
+    ``(n_agents, action_dim)``), plus:
+
     :param n_agents: agents per game.
-    :param gamma: discount for the Monte-Carlo returns.
-    :param store_mc_returns: keep Monte-Carlo returns (needed when β > 0).
-    :param handle_timeout_termination: a truncated episode is not a terminal state (SB3 default).
-    :param optimize_memory_usage: not supported (SB3 passes it; True raises).
     """
 
-    def __init__(
-        self,
-        buffer_size: int,
-        observation_space: spaces.Space,
-        action_space: spaces.Space,
-        device: th.device | str = "auto",
-        n_envs: int = 1,
-        n_agents: int = 2,
-        gamma: float = 0.99,
-        store_mc_returns: bool = False,
-        handle_timeout_termination: bool = True,
-        optimize_memory_usage: bool = False,
-    ) -> None:
-        self.n_agents = n_agents
-        super().__init__(
-            buffer_size,
-            observation_space,
-            action_space,
-            device,
-            n_envs=n_envs,
-            gamma=gamma,
-            store_mc_returns=store_mc_returns,
-            handle_timeout_termination=handle_timeout_termination,
-            optimize_memory_usage=optimize_memory_usage,
-        )
+    def __init__(self, *args: Any, n_agents: int = 2, **kwargs: Any) -> None:
+        self.n_agents = n_agents  # read by _rows() while the base class allocates the storage
+        super().__init__(*args, **kwargs)
 
     @property
     def reward_width(self) -> int:
