@@ -36,7 +36,6 @@ __all__ = [
     "accepted_keys",
     "check_keys",
     "config_path",
-    "load_hyperparams",
     "read_entry",
 ]
 
@@ -246,19 +245,3 @@ class RunConfig:
     def algorithm_kwargs(self) -> dict[str, Any]:
         """The hyperparameters as CommDDPG keyword arguments (schedules as callables)."""
         return algorithm_kwargs(self.hyperparams)
-
-
-def load_hyperparams(method: str, env_id: str, path: str | Path | None = None) -> dict[str, Any]:
-    """The checked settings of ``method`` on ``env_id`` as Python values.
-
-    :return: ``policy``, ``n_envs``, ``n_timesteps`` and the CommDDPG keyword arguments
-        (``lin_`` learning rates as schedules), ready for ``CommDDPG(**...)`` once the three
-        rl-zoo3 keys are taken out. :meth:`RunConfig.load` gives the same as a record.
-    """
-    config = RunConfig.load(method, env_id, path=path)
-    return {
-        "policy": config.method,
-        "n_envs": config.n_envs,
-        "n_timesteps": config.n_timesteps,
-        **config.algorithm_kwargs(),
-    }

@@ -96,12 +96,22 @@ def _git_commit() -> str | None:
     return out.stdout.strip() if out.returncode == 0 else None
 
 
+def _package_version() -> str | None:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("sb3-comm")
+    except PackageNotFoundError:
+        return None
+
+
 def machine_info() -> dict[str, Any]:
     """The machine and software that produced a result.
 
     Keys: ``cpu_model``, ``cores``, ``usable_cores``, ``platform``, ``python``, ``numpy``,
-    ``torch``, ``hostname``, ``date`` (UTC), ``git_commit`` (None outside a git checkout) and
-    ``load_average_1min`` (other processes share the cores: a high load means slower timings).
+    ``torch``, ``sb3_comm`` (this package's version), ``hostname``, ``date`` (UTC), ``git_commit``
+    (None outside a git checkout) and ``load_average_1min`` (other processes share the cores: a
+    high load means slower timings).
     """
     try:
         import torch
@@ -117,6 +127,7 @@ def machine_info() -> dict[str, Any]:
         "python": platform.python_version(),
         "numpy": np.__version__,
         "torch": torch_version,
+        "sb3_comm": _package_version(),
         "hostname": platform.node(),
         "date": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
         "git_commit": _git_commit(),

@@ -8,15 +8,16 @@ import json
 import pytest
 
 from sb3_comm.cli import main, parse_overrides
-from sb3_comm.config import CONFIG_DIR, load_hyperparams
+from sb3_comm.config import CONFIG_DIR, RunConfig
 
 
 @pytest.mark.parametrize("method", ["NONE", "RIAL", "TCG", "GSN"])
 @pytest.mark.parametrize("env_id", ["BlindSoccer-v0", "GuessMyNumber-v0"])
 def test_packaged_configs_load(method: str, env_id: str) -> None:
-    settings = load_hyperparams(method, env_id)
-    assert settings["policy"] == method
-    assert settings["n_envs"] >= 1 and settings["n_timesteps"] > 0
+    config = RunConfig.load(method, env_id)
+    assert config.method == method
+    assert config.n_envs >= 1 and config.n_timesteps > 0
+    settings = config.algorithm_kwargs()
     assert callable(settings["learning_rate"]) and settings["learning_rate"](1.0) == pytest.approx(1e-3)
     # Blind Soccer: the sweep's beta = 0.5; Guess My Number: gamma 0.9 and beta 0 (explore_gmn_tcg_*).
     expected = {"BlindSoccer-v0": (0.99, 0.5), "GuessMyNumber-v0": (0.9, 0.0)}[env_id]
@@ -27,25 +28,27 @@ def test_config_errors_name_the_problem(tmp_path) -> None:
     bad_key = tmp_path / "bad.yml"
     bad_key.write_text("BlindSoccer-v0:\n  policy: GSN\n  learning_rat: 0.001\n")
     with pytest.raises(ValueError, match=r"unknown key\(s\) \['learning_rat'\].*accepted keys"):
-        load_hyperparams("GSN", "BlindSoccer-v0", bad_key)
+        RunConfig.load("GSN", "BlindSoccer-v0", path=bad_key)
     with pytest.raises(ValueError, match=r"no entry for 'GuessMyNumber-v0'.*BlindSoccer-v0"):
-        load_hyperparams("GSN", "GuessMyNumber-v0", bad_key)
+        RunConfig.load("GSN", "GuessMyNumber-v0", path=bad_key)
     other = tmp_path / "other.yml"
     other.write_text("BlindSoccer-v0:\n  policy: TCG\n")
     with pytest.raises(ValueError, match="configured for method TCG"):
-        load_hyperparams("GSN", "BlindSoccer-v0", other)
+        RunConfig.load("GSN", "BlindSoccer-v0", path=other)
     broken = tmp_path / "broken.yml"
     broken.write_text("BlindSoccer-v0: [unclosed\n")
     with pytest.raises(ValueError, match="not valid YAML"):
-        load_hyperparams("GSN", "BlindSoccer-v0", broken)
+        RunConfig.load("GSN", "BlindSoccer-v0", path=broken)
     with pytest.raises(ValueError, match="Unknown communication method 'DIAL'"):
-        load_hyperparams("DIAL", "BlindSoccer-v0")
+        RunConfig.load("DIAL", "BlindSoccer-v0")
 
 
 def test_numbers_without_a_dot_are_numbers(tmp_path) -> None:
     path = tmp_path / "numbers.yml"
     path.write_text("BlindSoccer-v0:\n  policy: GSN\n  gsn_learning_rate: 1e-6\n")
-    assert load_hyperparams("GSN", "BlindSoccer-v0", path)["gsn_learning_rate"] == pytest.approx(1e-6)
+    assert RunConfig.load("GSN", "BlindSoccer-v0", path=path).hyperparams[
+        "gsn_learning_rate"
+    ] == pytest.approx(1e-6)
     assert parse_overrides(["gsn_learning_rate=1e-6", "batch_size=32"]) == {
         "gsn_learning_rate": 1e-6,
         "batch_size": 32,

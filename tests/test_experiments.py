@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 from sb3_comm.cli import main
-from sb3_comm.config import load_hyperparams
+from sb3_comm.config import RunConfig
 from sb3_comm.experiments import (
     ExperimentSpecError,
     RunSpec,
@@ -82,9 +82,9 @@ def test_paper_experiment_is_packaged_and_resolves() -> None:
     assert {r.task for r in runs} == {"BlindSoccer-v0", "GuessMyNumber-v0"}
     assert {r.seed for r in runs} == {0, 1, 2}
     for run in runs:  # budgets from the packaged zoo configs, 100-game evaluations every 50k steps
-        assert run.timesteps == load_hyperparams(run.method, run.task)["n_timesteps"]
+        assert run.timesteps == RunConfig.load(run.method, run.task).n_timesteps
         assert (run.eval_freq, run.eval_episodes) == (50_000, 100)
-        assert run.hyperparams["n_envs"] == load_hyperparams(run.method, run.task)["n_envs"]
+        assert run.hyperparams["n_envs"] == RunConfig.load(run.method, run.task).n_envs
     quick = load_experiment("paper", quick=True)
     assert quick.is_quick and not full.is_quick
     quick_runs = quick.runs()
