@@ -484,14 +484,17 @@ def _hyperparams(value: Any, context: str) -> dict[str, dict[str, Any]]:
                     f"{context}: hyperparams[{raw_section!r}] may not set {key!r}: "
                     f"{_RESERVED_HYPERPARAMS[key]}"
                 )
-        checked = {}
+        where = f"{context}: hyperparams[{raw_section!r}]"
         try:
-            where = f"{context}: hyperparams[{raw_section!r}]"
             check_keys(entry, where, exclude=tuple(_RESERVED_HYPERPARAMS))
-            for key, raw in entry.items():
-                checked[key] = _plain(canonical_value(key, raw))
         except ValueError as error:
             raise ExperimentSpecError(str(error)) from error
+        checked = {}
+        for key, raw in entry.items():
+            try:
+                checked[key] = _plain(canonical_value(key, raw))
+            except ValueError as error:
+                raise ExperimentSpecError(f"{where}: {error}") from error
         if "n_envs" in checked:
             _int(checked["n_envs"], f"hyperparams[{raw_section!r}]: n_envs", context)
         result.setdefault(section, {}).update(checked)
