@@ -26,9 +26,9 @@ from sb3_comm.experiments import (
     packaged_experiments,
     parse_experiment,
     run_experiment,
-    runner,
 )
 from sb3_comm.experiments import spec as spec_module
+from sb3_comm.results import RunResult
 
 TINY_HYPERPARAMS = {
     "n_envs": 2,
@@ -311,14 +311,16 @@ def test_a_broken_analysis_is_recorded_not_fatal(tmp_path: Path, monkeypatch: py
 def test_resume_skips_finished_runs_and_retrains_unfinished_ones(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fake_analysis
 ) -> None:
+    import sb3_comm.training
+
     trained: list[str] = []
-    original = runner._train_and_evaluate
+    original = sb3_comm.training.train_run
 
-    def counting(run: RunSpec, *args: Any) -> dict[str, Any]:
-        trained.append(run.key)
-        return original(run, *args)
+    def counting(config: RunConfig, *args: Any, **kwargs: Any) -> RunResult:
+        trained.append(f"{config.method}/{config.task}/{config.seed}")
+        return original(config, *args, **kwargs)
 
-    monkeypatch.setattr(runner, "_train_and_evaluate", counting)
+    monkeypatch.setattr(sb3_comm.training, "train_run", counting)
     spec = parse_experiment(tiny())
     quiet = {"workers": 0, "echo": lambda line: None}
     first = run_experiment(spec, tmp_path, **quiet)
