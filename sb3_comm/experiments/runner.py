@@ -294,6 +294,7 @@ def run_experiment(
     if ray_address:
         _import_ray()  # fail before anything is written
     out = Path(out).resolve()
+    select_runs(spec.runs(), only)  # a selector that matches nothing fails before the folder is made
     command = command or " ".join(shlex.quote(arg) for arg in mask_command(sys.argv))
     with folder_lock(out, command, echo=echo):
         return _run_locked(spec, out, workers, ray_address, only, rerun_failed, command, echo)
