@@ -309,12 +309,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``sb3-comm``."""
+    from sb3_comm.common.files import FolderLockedError, describe_os_error
+
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))
-    except (ValueError, FileNotFoundError) as error:
+    except (ValueError, FileNotFoundError, FolderLockedError) as error:
         print(f"sb3-comm: error: {error}", file=sys.stderr)
         return 2
+    except OSError as error:  # a full disk, a lost mount: one line; the files written are whole
+        print(f"sb3-comm: error: {describe_os_error(error)}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

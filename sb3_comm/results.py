@@ -5,7 +5,8 @@
 :meth:`RunResult.load`. Every JSON file of the project goes through :func:`to_jsonable` (one
 policy: NumPy values become Python values, NaN and infinities become ``null``, as standard JSON
 has no NaN) and :func:`write_json` (a temporary file in the same folder, then ``os.replace``, so
-that a reader never sees half a file). :func:`machine_info` describes the machine that made them.
+that a reader never sees half a file: :func:`sb3_comm.common.files.atomic_path`).
+:func:`machine_info` describes the machine that made them.
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from sb3_comm.common.files import write_text
 
 __all__ = ["RunResult", "machine_info", "read_json", "to_jsonable", "usable_cores", "write_json"]
 
@@ -47,15 +50,8 @@ def to_jsonable(value: Any) -> Any:
 
 def write_json(path: str | Path, data: Any) -> Path:
     """Write ``data`` (through :func:`to_jsonable`) atomically to ``path``; returns the path."""
-    path = Path(path)
     text = json.dumps(to_jsonable(data), indent=2, allow_nan=False) + "\n"
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+    return write_text(path, text)
 
 
 def read_json(path: str | Path) -> Any:

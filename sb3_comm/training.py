@@ -9,7 +9,12 @@
   after every evaluation so that a run that dies keeps it);
 - ``model.zip`` (also written when training is interrupted);
 - ``messages.npz`` when a communication analysis is asked for;
-- ``result.json`` last: the :class:`~sb3_comm.results.RunResult`.
+- ``result.json`` last: the :class:`~sb3_comm.results.RunResult`;
+- ``error.txt`` instead of ``result.json`` when the run fails: ``status: failed``, the reason on
+  one line, then the traceback.
+
+Every file is written atomically (:func:`sb3_comm.common.files.atomic_path`): a run that dies,
+the disk full included, leaves whole files or none, never a truncated ``model.zip`` or checkpoint.
 
 >>> from sb3_comm.config import RunConfig
 >>> from sb3_comm.training import train_run
@@ -19,6 +24,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import time
 import traceback
@@ -32,12 +38,20 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from sb3_comm.callbacks import TeamEvalCallback
 from sb3_comm.comm_ddpg import CommDDPG
+from sb3_comm.common.files import atomic_path, write_text
 from sb3_comm.config import RunConfig
 from sb3_comm.evaluation import ABLATIONS, evaluate_team
 from sb3_comm.registration import make_comm_vec_env
 from sb3_comm.results import RunResult, to_jsonable
 
-__all__ = ["EvalSettings", "build_model", "train_run"]
+__all__ = [
+    "AtomicCheckpointCallback",
+    "EvalSettings",
+    "build_model",
+    "save_model",
+    "train_run",
+    "write_failure",
+]
 
 
 @dataclass(frozen=True)
@@ -73,6 +87,53 @@ class EvalSettings:
         }
 
 
+class AtomicCheckpointCallback(CheckpointCallback):
+    """SB3's :class:`~stable_baselines3.common.callbacks.CheckpointCallback`, each file written
+    atomically: a run that dies while saving leaves the earlier checkpoints and no truncated one."""
+
+    def _on_step(self) -> bool:
+        if self.n_calls % self.save_freq != 0:
+            return True
+        model_path = self._checkpoint_path(extension="zip")
+        save_model(self.model, model_path)
+        if self.verbose >= 2:
+            print(f"Saving model checkpoint to {model_path}")
+        if self.save_replay_buffer and getattr(self.model, "replay_buffer", None) is not None:
+            buffer_path = self._checkpoint_path("replay_buffer_", extension="pkl")
+            with atomic_path(buffer_path) as tmp:
+                self.model.save_replay_buffer(tmp)  # type: ignore[attr-defined]
+        vec_normalize = self.model.get_vec_normalize_env()
+        if self.save_vecnormalize and vec_normalize is not None:
+            with atomic_path(self._checkpoint_path("vecnormalize_", extension="pkl")) as tmp:
+                vec_normalize.save(str(tmp))
+        return True
+
+
+def save_model(model: Any, path: str | Path) -> Path:
+    """``model.save(path)``, atomically (a temporary ``.zip`` in the same folder, then a rename)."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        model.save(tmp)
+    return path
+
+
+def write_failure(run_dir: str | Path, error: BaseException, note: str = "") -> bool:
+    """Mark ``run_dir`` failed: ``error.txt`` holds ``status: failed`` (``interrupted`` for Ctrl-C),
+    the reason on one line, then ``note`` and the traceback (its last line is the reason again).
+
+    Written atomically and never raises: on a full disk the file may not be written at all
+    (then ``False``), but it is never empty or truncated.
+    """
+    status = "failed" if isinstance(error, Exception) else "interrupted"
+    reason = traceback.format_exception_only(type(error), error)[-1].strip()
+    text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
+    try:
+        write_text(Path(run_dir) / "error.txt", f"status: {status}\nreason: {reason}\n\n{note}{text}")
+    except OSError:
+        return False
+    return True
+
+
 def build_model(config: RunConfig, env: VecEnv | None = None, **kwargs: Any) -> CommDDPG:
     """The :class:`~sb3_comm.CommDDPG` of a configuration.
 
@@ -100,7 +161,7 @@ def _communication(
 
         n, seed = settings.analysis_episodes, settings.analysis_seed
         rollout = collect_rollout(model, config.task, n_episodes=n, seed=seed)
-        rollout.save(run_dir / "messages.npz")
+        rollout.save(run_dir / "messages.npz")  # atomic
         metrics = analyse_communication(model, config.task, n_episodes=n, seed=seed, rollout=rollout)
         return to_jsonable(metrics), None
     except Exception:
@@ -133,12 +194,34 @@ def train_run(
     :param progress_bar: show SB3's progress bar.
     :return: the :class:`~sb3_comm.results.RunResult`, also written to ``run_dir/result.json``.
     """
-    settings = evaluation or EvalSettings()
-    began = time.perf_counter()
-    started = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
-    (run_dir / "config.yml").write_text(config.to_yaml())
+    try:
+        return _train_run(
+            config, run_dir, evaluation or EvalSettings(), save_freq, callbacks, config_hash, device,
+            verbose, eval_verbose, progress_bar,
+        )  # fmt: skip
+    except BaseException as error:
+        write_failure(run_dir, error)
+        raise
+
+
+def _train_run(
+    config: RunConfig,
+    run_dir: Path,
+    settings: EvalSettings,
+    save_freq: int,
+    callbacks: Sequence[BaseCallback],
+    config_hash: str | None,
+    device: str,
+    verbose: int,
+    eval_verbose: int,
+    progress_bar: bool,
+) -> RunResult:
+    began = time.perf_counter()
+    started = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
+    (run_dir / "error.txt").unlink(missing_ok=True)  # this attempt's outcome replaces an earlier one's
+    write_text(run_dir / "config.yml", config.to_yaml())
     model = build_model(config, tensorboard_log=str(run_dir / "tb"), device=device, verbose=verbose)
     evaluator = TeamEvalCallback(
         config.task,
@@ -152,7 +235,7 @@ def train_run(
     run_callbacks: list[BaseCallback] = [evaluator]
     if save_freq > 0:
         run_callbacks.append(
-            CheckpointCallback(
+            AtomicCheckpointCallback(
                 max(save_freq // config.n_envs, 1), str(run_dir / "checkpoints"), name_prefix="model"
             )
         )
@@ -164,8 +247,12 @@ def train_run(
             progress_bar=progress_bar,
             log_interval=100 * config.n_envs,
         )
-    finally:
-        model.save(run_dir / "model.zip")
+    except BaseException:
+        # Saved also when training is interrupted; a failed save must not hide why it stopped.
+        with contextlib.suppress(Exception):
+            save_model(model, run_dir / "model.zip")
+        raise
+    save_model(model, run_dir / "model.zip")
     train_seconds = time.perf_counter() - learn_began - evaluator.eval_seconds
     if not evaluator.history or evaluator.history[-1]["timesteps"] != model.num_timesteps:
         evaluator.evaluate()  # the curve ends where training ended

@@ -18,22 +18,39 @@ command is rl-zoo3's own ``train``, ``enjoy`` or ``record_video``. Two additions
 
 The environments only render ``rgb_array``: ``enjoy`` runs without a window (``--no-render`` is
 added); ``record_video`` writes an MP4.
+
+rl-zoo3 records the Optuna ``--storage`` URL in ``args.yml``, ``command.txt`` and, inside the
+pickled study, its ``report_*.pkl``; here they are written with the password masked
+(``postgresql://user:***@host/db``), and the report pickle holds an in-memory copy of the study
+(its trials and attributes) rather than a connection to the database.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import pickle
 import random
 import runpy
 import sys
 import time
+from collections.abc import Iterator
 from typing import Any
 
 from sb3_comm.comm_ddpg import METHODS, CommDDPG, HybridDDPG
+from sb3_comm.common.files import mask_command, mask_url
 from sb3_comm.common.hyperparams import canonical_value, python_value
 from sb3_comm.config import CONFIG_DIR, RunConfig, accepted_keys, check_keys, config_path, read_entry
 
-__all__ = ["ZOO_ALGOS", "convert_commddpg_params", "main", "register", "sample_commddpg_params"]
+__all__ = [
+    "ZOO_ALGOS",
+    "convert_commddpg_params",
+    "detached_study",
+    "main",
+    "register",
+    "sample_commddpg_params",
+    "storage_masked",
+]
 
 
 def _from_file(kwargs: dict[str, Any]) -> dict[str, Any]:
@@ -203,6 +220,65 @@ def init_storage(url: str, attempts: int = 10) -> None:
             time.sleep(0.2 + random.random())
 
 
+def detached_study(study: Any) -> Any:
+    """An in-memory copy of an Optuna study: its trials, name, directions and attributes, without
+    the storage (whose URL may hold a password) that pickling the study itself would record."""
+    import optuna
+
+    copy = optuna.create_study(study_name=study.study_name, directions=study.directions)
+    copy.add_trials(study.trials)
+    for key, value in study.user_attrs.items():
+        copy.set_user_attr(key, value)
+    return copy
+
+
+class _PickleWithoutStorage:
+    """``pickle`` for rl-zoo3's report: an Optuna study is pickled as :func:`detached_study`."""
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(pickle, name)
+
+    @staticmethod
+    def dump(obj: Any, file: Any, *args: Any, **kwargs: Any) -> None:
+        import optuna
+
+        if isinstance(obj, optuna.Study):
+            obj = detached_study(obj)
+        pickle.dump(obj, file, *args, **kwargs)
+
+
+@contextlib.contextmanager
+def storage_masked() -> Iterator[None]:
+    """While rl-zoo3 runs, what it writes about the ``--storage`` URL has the password masked."""
+    import rl_zoo3.exp_manager as exp_manager
+
+    manager = exp_manager.ExperimentManager
+    save_config, saved_pickle = manager._save_config, exp_manager.pkl
+    orig_argv = getattr(sys, "orig_argv", None)
+
+    def _save_config(self: Any, saved_hyperparams: dict[str, Any]) -> None:
+        storage = getattr(self.args, "storage", None)
+        if isinstance(storage, str):
+            self.args.storage = mask_url(storage)
+        try:
+            save_config(self, saved_hyperparams)
+        finally:
+            if isinstance(storage, str):
+                self.args.storage = storage
+
+    manager._save_config = _save_config  # type: ignore[method-assign]
+    exp_manager.pkl = _PickleWithoutStorage()  # type: ignore[assignment]
+    if orig_argv is not None:
+        sys.orig_argv = mask_command(orig_argv)  # command.txt and args.yml's command
+    try:
+        yield
+    finally:
+        manager._save_config = save_config  # type: ignore[method-assign]
+        exp_manager.pkl = saved_pickle
+        if orig_argv is not None:
+            sys.orig_argv = orig_argv
+
+
 def run(command: str, argv: list[str]) -> int:
     """Register, check the arguments, and run rl-zoo3's ``command`` with them."""
     args = prepare_args(command, argv)
@@ -221,7 +297,8 @@ def run(command: str, argv: list[str]) -> int:
     saved_argv = sys.argv
     sys.argv = [f"rl_zoo3 {command}", *args]
     try:
-        scripts[command]()
+        with storage_masked():
+            scripts[command]()
     finally:
         sys.argv = saved_argv
     return 0

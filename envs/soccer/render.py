@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import pathlib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -429,18 +430,29 @@ def save_video(frames: Iterable[np.ndarray], path: str | pathlib.Path, fps: floa
                 "writing .mp4 needs imageio and imageio-ffmpeg (pip install imageio imageio-ffmpeg); "
                 "or save as .gif, which needs only Pillow"
             ) from err
-        path.parent.mkdir(parents=True, exist_ok=True)
-        # macro_block_size=2: libx264 needs even sizes; larger blocks would rescale the frames.
-        iio.mimwrite(path, frames, format="FFMPEG", fps=fps, codec="libx264", macro_block_size=2)
-        return path
     path.parent.mkdir(parents=True, exist_ok=True)
-    images = [Image.fromarray(f) for f in frames]
-    images[0].save(
-        path,
-        save_all=True,
-        append_images=images[1:],
-        duration=max(1, round(1000 / fps)),
-        loop=0,
-        optimize=False,
-    )
+    # Written to a temporary file in the same folder, then renamed: never a truncated video.
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    try:
+        if suffix == ".mp4":
+            # macro_block_size=2: libx264 needs even sizes; larger blocks would rescale the frames.
+            iio.mimwrite(tmp, frames, format="FFMPEG", fps=fps, codec="libx264", macro_block_size=2)
+        else:
+            images = [Image.fromarray(f) for f in frames]
+            images[0].save(
+                tmp,
+                format="GIF",
+                save_all=True,
+                append_images=images[1:],
+                duration=max(1, round(1000 / fps)),
+                loop=0,
+                optimize=False,
+            )
+        os.replace(tmp, path)
+    except OSError as error:
+        if error.errno is None:
+            raise
+        raise OSError(error.errno, error.strerror, str(path)) from error  # the file the user asked for
+    finally:
+        tmp.unlink(missing_ok=True)
     return path

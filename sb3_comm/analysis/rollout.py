@@ -22,6 +22,7 @@ import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
 
 from sb3_comm.analysis.metrics import causal_influence_of_communication
+from sb3_comm.common.files import atomic_path
 from sb3_comm.common.layout import CommLayout
 from sb3_comm.registration import make_comm_vec_env
 
@@ -95,7 +96,7 @@ class Rollout:
         return self.messages[:-1, :, i][pair], self.action_types[1:, :, j][pair]
 
     def save(self, path: str | Path) -> None:
-        """Write a compressed ``.npz`` (arrays plus a JSON header)."""
+        """Write a compressed ``.npz`` (arrays plus a JSON header), atomically."""
         header = {
             "agent_names": list(self.agent_names),
             "env_id": self.env_id,
@@ -104,14 +105,16 @@ class Rollout:
             "n_action_types": self.n_action_types,
             "metadata": self.metadata,
         }
-        np.savez_compressed(
-            path,
-            observations=self.observations,
-            messages=self.messages,
-            action_types=self.action_types,
-            alive=self.alive,
-            header=np.array(json.dumps(header)),
-        )
+        path = Path(path) if str(path).endswith(".npz") else Path(f"{path}.npz")  # as NumPy names it
+        with atomic_path(path) as tmp:
+            np.savez_compressed(
+                tmp,
+                observations=self.observations,
+                messages=self.messages,
+                action_types=self.action_types,
+                alive=self.alive,
+                header=np.array(json.dumps(header)),
+            )
 
     @classmethod
     def load(cls, path: str | Path) -> Rollout:

@@ -7,10 +7,16 @@ overrides), into ``OUT/runs/<task>/<method>/seed<seed>-<hash8>/``: ``tb/``, ``ch
 messages) and, last, ``result.json`` (a :class:`~sb3_comm.results.RunResult`: curve, final return
 with messages intact, zeroed and shuffled, communication metrics and timings).
 
-A run that raises writes ``error.txt`` (the traceback) instead; the other runs go on. A run
-whose ``result.json`` exists is skipped, so an interrupted experiment resumes where it stopped;
-a run folder left without ``result.json`` is trained again, its earlier files moved aside to
-``previous_attempts/<k>/`` (nothing is deleted).
+A run that raises writes ``error.txt`` (``status: failed``, the reason, the traceback) instead;
+the other runs go on. A run whose ``result.json`` exists is skipped, so an interrupted experiment
+resumes where it stopped; a run folder left without ``result.json`` is trained again, its earlier
+files moved aside to ``previous_attempts/<k>/`` (nothing is deleted).
+
+One runner at a time owns an experiment folder (``OUT/.lock``, see
+:func:`~sb3_comm.common.files.folder_lock`): a second one stops with a message naming the first.
+Worker processes end with the runner, even after ``kill -9``, so that nothing writes into the
+folder of a restarted runner. Every file is written atomically, and the Ray address is recorded
+with its password masked.
 
 >>> from sb3_comm.experiments import load_experiment, run_experiment
 >>> spec = load_experiment("paper", quick=True)
@@ -24,15 +30,15 @@ import shlex
 import shutil
 import sys
 import time
-import traceback
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from contextlib import ExitStack, contextmanager
+from contextlib import ExitStack, contextmanager, suppress
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from sb3_comm.common.files import die_with_parent, folder_lock, mask_command, mask_url, write_text
 from sb3_comm.experiments.spec import ExperimentSpec, ExperimentSpecError, RunSpec
 from sb3_comm.results import RunResult, machine_info, read_json, usable_cores, write_json
 
@@ -77,17 +83,17 @@ def run_one(run: RunSpec, run_dir: str | Path) -> dict[str, Any]:
     """
     began = time.perf_counter()
     run_dir = Path(run_dir)
-    run_dir.mkdir(parents=True, exist_ok=True)
-    if (run_dir / "result.json").exists():  # finished meanwhile (another invocation)
-        return {**read_json(run_dir / "result.json"), "status": "skipped"}
-    _move_aside(run_dir)
     import torch as th
 
-    from sb3_comm.training import train_run
+    from sb3_comm.training import train_run, write_failure
 
     threads = th.get_num_threads()
     th.set_num_threads(1)  # one core per run; runs go in parallel
     try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        if (run_dir / "result.json").exists():  # finished meanwhile (another invocation)
+            return {**read_json(run_dir / "result.json"), "status": "skipped"}
+        _move_aside(run_dir)
         result = train_run(
             run.config,
             run_dir,
@@ -97,7 +103,7 @@ def run_one(run: RunSpec, run_dir: str | Path) -> dict[str, Any]:
         )
         return result.to_json()
     except BaseException as error:
-        (run_dir / "error.txt").write_text(traceback.format_exc())
+        write_failure(run_dir, error)  # never raises, never leaves an empty or half file
         if not isinstance(error, Exception):  # KeyboardInterrupt, SystemExit: stop
             raise
         failed = RunResult(
@@ -163,7 +169,9 @@ def _local_results(
     import multiprocessing as mp
 
     extra = {"max_tasks_per_child": 1} if sys.version_info >= (3, 11) else {}
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), **extra) as pool:
+    with ProcessPoolExecutor(
+        max_workers=workers, mp_context=mp.get_context("spawn"), initializer=die_with_parent, **extra
+    ) as pool:
         futures = {pool.submit(run_one, run, run_dir): run for run, run_dir in jobs}
         for future in as_completed(futures):
             run = futures[future]
@@ -174,10 +182,12 @@ def _local_results(
 
 
 def _crashed(run: RunSpec, jobs: list[tuple[RunSpec, Path]], error: BaseException) -> dict[str, Any]:
+    from sb3_comm.training import write_failure
+
     run_dir = dict((r.key, d) for r, d in jobs)[run.key]
-    run_dir.mkdir(parents=True, exist_ok=True)
-    text = "".join(traceback.format_exception(error))
-    (run_dir / "error.txt").write_text(f"The process of this run ended abnormally:\n{text}")
+    with suppress(OSError):
+        run_dir.mkdir(parents=True, exist_ok=True)
+    write_failure(run_dir, error, note="The process of this run ended abnormally:\n")
     return {"status": "failed", "error": f"{type(error).__name__}: {error}"}
 
 
@@ -206,9 +216,9 @@ def _ray_session(address: str, workers: int | None) -> Iterator[Any]:
             ray.init(address=address, **options)
         except Exception as error:
             raise ConnectionError(
-                f"Cannot connect to Ray at {address!r}: {error}. Give 'auto' (the cluster started with "
-                "'ray start' on this machine), 'host:port' of the head node, or 'local'. A cluster with "
-                "token authentication (the default of 'ray start' in recent Ray) also needs "
+                f"Cannot connect to Ray at {mask_url(address)!r}: {error}. Give 'auto' (the cluster "
+                "started with 'ray start' on this machine), 'host:port' of the head node, or 'local'. "
+                "A cluster with token authentication (the default of 'ray start' in recent Ray) also needs "
                 "RAY_AUTH_MODE=token in this shell."
             ) from error
     try:
@@ -263,7 +273,7 @@ def run_experiment(
     command: str | None = None,
     echo: Callable[[str], None] = print,
 ) -> dict[str, Any]:
-    """Run every run of ``spec`` that has no ``result.json`` in ``out`` yet.
+    """Run every run of ``spec`` that has no ``result.json`` in ``out`` yet, holding ``out``'s lock.
 
     :param spec: a checked experiment (:func:`~sb3_comm.experiments.load_experiment`).
     :param out: experiment folder; receives ``experiment.yml``, ``runs/`` and ``summary.json``.
@@ -278,11 +288,29 @@ def run_experiment(
     :return: the summary (also written to ``out/summary.json``): one row per run of the
         experiment with status ``done``, ``failed``, ``skipped`` (finished earlier) or
         ``not selected``, plus timings and the machine.
+    :raises FolderLockedError: another live runner holds ``out`` (the message names it); a lock
+        left by a runner that is gone is taken over (``echo`` says so).
     """
-    began = time.perf_counter()
     if ray_address:
         _import_ray()  # fail before anything is written
     out = Path(out).resolve()
+    select_runs(spec.runs(), only)  # a selector that matches nothing fails before the folder is made
+    command = command or " ".join(shlex.quote(arg) for arg in mask_command(sys.argv))
+    with folder_lock(out, command, echo=echo):
+        return _run_locked(spec, out, workers, ray_address, only, rerun_failed, command, echo)
+
+
+def _run_locked(
+    spec: ExperimentSpec,
+    out: Path,
+    workers: int | None,
+    ray_address: str | None,
+    only: Iterable[str] | None,
+    rerun_failed: bool,
+    command: str,
+    echo: Callable[[str], None],
+) -> dict[str, Any]:
+    began = time.perf_counter()
     runs = spec.runs()
     selected = select_runs(runs, only)
     if rerun_failed:
@@ -301,7 +329,8 @@ def run_experiment(
             todo.append(run)
         else:
             rows[run.key] = {**row, "status": "not selected"}
-    backend = f"Ray ({ray_address})" if ray_address else ("this process" if workers == 0 else "processes")
+    local = "this process" if workers == 0 else "processes"
+    backend = f"Ray ({mask_url(ray_address)})" if ray_address else local
     n_workers = default_workers() if workers is None else workers
     if not ray_address and n_workers:
         n_workers = max(1, min(n_workers, len(todo) or 1))
@@ -357,7 +386,7 @@ def _write_spec(spec: ExperimentSpec, out: Path) -> None:
         while target.exists():
             target, k = out / f"experiment.{stamp}-{k}.yml", k + 1
         path.rename(target)
-    path.write_text(text)
+    write_text(path, text)
 
 
 def _summary(
@@ -367,7 +396,7 @@ def _summary(
     began: float,
     workers: int,
     backend: str,
-    command: str | None,
+    command: str,
 ) -> dict[str, Any]:
     table = list(rows.values())
     counts = {status: sum(row["status"] == status for row in table)
@@ -376,7 +405,7 @@ def _summary(
         "name": spec.name,
         "quick": spec.is_quick,
         "out": str(out),
-        "command": command or " ".join(shlex.quote(arg) for arg in sys.argv),
+        "command": command,
         "finished": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
         "wall_seconds": time.perf_counter() - began,
         "backend": backend,

@@ -387,7 +387,7 @@ def _build(settings: dict[str, Any], context: str, default_name: str) -> Experim
     if len(set(seeds)) != len(seeds):
         raise ExperimentSpecError(f"{context}: 'seeds' lists a seed twice: {seeds}")
     spec = ExperimentSpec(
-        name=str(settings.get("name") or default_name),
+        name=_name(settings.get("name") or default_name, context),
         description=str(settings["description"] or ""),
         methods=methods,
         tasks=tasks,
@@ -421,6 +421,17 @@ def _check_members(values: list[str], accepted: Any, what: str, context: str) ->
             raise ExperimentSpecError(f"{context}: unknown {what} {value!r}; accepted: {sorted(accepted)}")
     if len(set(values)) != len(values):
         raise ExperimentSpecError(f"{context}: a {what} is listed twice: {values}")
+
+
+def _name(value: Any, context: str) -> str:
+    """The experiment name: a plain folder name, so that ``runs/experiments/<name>`` stays there."""
+    name = str(value).strip()
+    if name in ("", ".", "..") or any(c in name for c in "/\\\0") or name.startswith("~"):
+        raise ExperimentSpecError(
+            f"{context}: 'name' must be a plain folder name (letters, digits, '-', '_', '.'; no '/', "
+            f"'\\', '..' or '~'), got {name!r} (--out chooses another output folder)"
+        )
+    return name
 
 
 def _list(value: Any, key: str, context: str) -> list[Any]:
