@@ -44,7 +44,7 @@ BAD_ARGUMENTS = [
     (
         {"learning_rate": "lin_1e-4"},
         TypeError,
-        r"learning_rate must be a float > 0 or a callable.*'lin_1e-4'",
+        r"learning_rate must be a float or a callable schedule .* > 0, got 'lin_1e-4'",
     ),
     ({"buffer_size": 0}, ValueError, r"buffer_size must be a whole number ≥ 1, got 0"),
     ({"buffer_size": 1e5}, TypeError, r"buffer_size must be a whole number ≥ 1, got 100000.0 \(float\)"),
@@ -124,7 +124,7 @@ def test_a_vec_env_that_mixes_tasks_is_refused() -> None:
     ("overrides", "match"),
     [
         ({"batch_size": "abc"}, r"batch_size must be a whole number ≥ 1, got 'abc'"),
-        ({"learning_rate": "abc"}, r"learning_rate must be a float > 0 .*'lin_<number>'"),
+        ({"learning_rate": "abc"}, r"learning_rate must be a float or a callable .*'lin_<number>'"),
         ({"gamma": 1.5}, r"gamma must be a number in \[0, 1\]"),
         ({"max_grad_norm": -1}, r"max_grad_norm must be a number > 0 or None"),
         ({"policy_kwargs": {"net_arch": [-5]}}, r"policy_kwargs\['net_arch'\] .* got \[-5\]"),
@@ -158,7 +158,7 @@ def _train_args(tmp_path: Path, *extra: str) -> list[str]:
 @pytest.mark.parametrize(
     ("params", "needle"),
     [
-        (["learning_rate=abc"], "learning_rate must be a float > 0"),
+        (["learning_rate=abc"], "learning_rate must be a float or a callable schedule"),
         (["net_arch=[1,"], "'[1,' is not valid YAML"),
         (["policy_kwargs=abc"], "write policy_kwargs as a YAML mapping"),
         (["batch_size=abc"], "batch_size must be a whole number ≥ 1, got 'abc'"),

@@ -121,8 +121,8 @@ class LearningRate:
                     "(e.g. 'lin_1e-3'), which sb3_comm.config converts"
                 )
             raise TypeError(
-                f"{name} must be a float > 0 or a callable schedule (e.g. "
-                f"stable_baselines3.common.utils.LinearSchedule), got {value!r} ({type(value).__name__})"
+                f"{name} must be a float or a callable schedule (e.g. stable_baselines3.common.utils."
+                f"LinearSchedule) with values > 0, got {value!r} ({type(value).__name__})"
                 f"{hint}"
             )
         Range(0.0, low_open=True)(name, value)
