@@ -19,12 +19,18 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import traceback
+import zipfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
 from sb3_comm.common.hyperparams import canonical_value
+
+if TYPE_CHECKING:
+    from sb3_comm.comm_ddpg import CommDDPG
 
 __all__ = ["main", "parse_overrides"]
 
@@ -37,17 +43,103 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
         key, sep, value = item.partition("=")
         if not sep or not key:
             raise ValueError(f"Hyperparameter override {item!r} must look like key=value")
-        result[key.strip()] = canonical_value(key.strip(), yaml.safe_load(value))
+        try:
+            parsed = yaml.safe_load(value)
+        except yaml.YAMLError as error:
+            problem = getattr(error, "problem", None) or "cannot be parsed"
+            raise ValueError(
+                f"Hyperparameter override {item!r}: the value {value!r} is not valid YAML ({problem}); "
+                "e.g. batch_size=64, learning_rate=lin_1e-3, 'policy_kwargs={net_arch: [64, 64]}'"
+            ) from error
+        result[key.strip()] = canonical_value(key.strip(), parsed)
     return result
 
 
-def _fresh_dir(base: Path) -> Path:
+def _fresh_dir(base: Path, option: str) -> Path:
+    """Create and return ``base`` or, if it exists, ``base_1``, ``base_2``, ... (never reuse a folder)."""
     candidate, k = base, 1
     while candidate.exists():
         candidate = base.with_name(f"{base.name}_{k}")
         k += 1
-    candidate.mkdir(parents=True)
+    try:
+        candidate.mkdir(parents=True)
+    except OSError as error:
+        raise ValueError(f"{option}: cannot create the run folder {candidate} ({error.strerror})") from error
     return candidate
+
+
+def _count(minimum: int, meaning: str = "") -> Callable[[str], int]:
+    """An argparse type: a whole number ≥ ``minimum`` (a mistake exits 2 with argparse's usage line)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number ≥ {minimum}, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be ≥ {minimum}{meaning}, got {value}")
+        return value
+
+    parse.__name__ = f"whole number ≥ {minimum}"
+    return parse
+
+
+def _check_env_id(env_id: str) -> str:
+    """A Gymnasium id that is registered (the packaged tasks are, by ``import sb3_comm``)."""
+    import gymnasium as gym
+
+    import sb3_comm  # noqa: F401  (registers the task ids)
+    from sb3_comm.registration import TASK_IDS
+
+    if env_id not in gym.registry:
+        raise ValueError(f"Unknown environment {env_id!r}: not a registered id; the tasks: {list(TASK_IDS)}")
+    return env_id
+
+
+def _model_file(path_text: str) -> Path:
+    """The model file a user named, checked without unpickling anything: it exists, is a zip archive
+    and its JSON ``data`` entry says CommDDPG saved it (a folder, a missing file, a corrupted
+    archive or another algorithm's model are named as such)."""
+    path = Path(path_text)
+    if not path.exists() and path.suffix != ".zip" and path.with_name(f"{path.name}.zip").is_file():
+        path = path.with_name(f"{path.name}.zip")  # SB3's convention: the .zip may be left out
+    if not path.exists():
+        raise FileNotFoundError(f"Model file {path} does not exist")
+    if path.is_dir():
+        hint = f"; did you mean {path / 'model.zip'}?" if (path / "model.zip").is_file() else ""
+        raise ValueError(f"{path} is a folder, not a model file (the model.zip of a run){hint}")
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"{path} is not a model file: not a zip archive (truncated or corrupted?)")
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data")) if "data" in archive.namelist() else None
+    except (OSError, ValueError, zipfile.BadZipFile) as error:
+        raise ValueError(f"{path} is a corrupted model file: its 'data' entry is unreadable") from error
+    if not isinstance(data, dict):
+        raise ValueError(f"{path} is not a model file of Stable-Baselines3: the archive has no 'data' entry")
+    policy = data.get("policy_class")
+    module = policy.get("__module__", "") if isinstance(policy, dict) else ""
+    if not module.startswith("sb3_comm.comm_ddpg"):
+        raise ValueError(
+            f"{path} is not a CommDDPG team model (its policy comes from {module or 'an unknown module'}); "
+            "evaluate and record-video take the model.zip of an sb3-comm train run"
+        )
+    return path
+
+
+def _load_model(path: Path, device: str) -> CommDDPG:
+    """``CommDDPG.load`` of a file checked by :func:`_model_file`; a failure names the file."""
+    from sb3_comm import CommDDPG
+
+    try:
+        return CommDDPG.load(path, device=device)
+    except Exception as error:  # a corrupted policy.pth or optimizer, a bad pickle, ...
+        text = str(error).strip()
+        reason = text.splitlines()[0].split(". ")[0] if text else ""
+        raise ValueError(
+            f"{path} cannot be loaded as a CommDDPG model: corrupted or incompatible contents "
+            f"({type(error).__name__}{': ' + reason if reason else ''})"
+        ) from error
 
 
 def _train(args: argparse.Namespace) -> int:
@@ -59,23 +151,30 @@ def _train(args: argparse.Namespace) -> int:
         overrides["n_envs"] = args.n_envs
     if args.timesteps is not None:
         overrides["n_timesteps"] = args.timesteps
+    # Checked in full (every value, RunConfig) before the run folder exists.
     config = RunConfig.load(args.method, args.env, seed=args.seed, path=args.conf, overrides=overrides)
-    run_dir = _fresh_dir(Path(args.log_folder) / args.env / f"{config.method}_seed{config.seed}")
+    run_name = f"{config.method}_seed{config.seed}"
+    run_dir = _fresh_dir(Path(args.log_folder) / args.env / run_name, "--log-folder")
     print(
         f"Training CommDDPG {config.method} on {args.env}: {config.n_timesteps} steps, "
         f"{config.n_envs} parallel games, seed {config.seed}"
     )
     print(f"Run folder: {run_dir}")
-    result = train_run(
-        config,
-        run_dir,
-        evaluation=EvalSettings(freq=args.eval_freq, episodes=args.eval_episodes),
-        save_freq=args.save_freq,
-        device=args.device,
-        verbose=args.verbose,
-        eval_verbose=1,
-        progress_bar=not args.no_progress_bar,
-    )
+    try:
+        result = train_run(
+            config,
+            run_dir,
+            evaluation=EvalSettings(freq=args.eval_freq, episodes=args.eval_episodes),
+            save_freq=args.save_freq,
+            device=args.device,
+            verbose=args.verbose,
+            eval_verbose=1,
+            progress_bar=not args.no_progress_bar,
+        )
+    except BaseException:
+        if not any(run_dir.iterdir()):  # failed before writing anything: leave no empty run folder
+            run_dir.rmdir()
+        raise
     print(
         f"Done in {result.wall_seconds:.0f} s. Final evaluation ({args.eval_episodes} episodes): "
         f"mean return {result.curve[-1]['mean_return']:.4f}"
@@ -88,11 +187,11 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _evaluate(args: argparse.Namespace) -> int:
-    from sb3_comm import CommDDPG
     from sb3_comm.evaluation import evaluate_team
 
-    model = CommDDPG.load(args.model, device=args.device)
-    env_id = args.env or _env_of(Path(args.model))
+    path = _model_file(args.model)
+    env_id = _check_env_id(args.env or _env_of(path))
+    model = _load_model(path, args.device)
     result = evaluate_team(model, env_id, n_episodes=args.episodes, seed=args.seed, ablation=args.ablation)
     print(
         json.dumps(
@@ -107,10 +206,14 @@ def _record_video(args: argparse.Namespace) -> int:
     import numpy as np
 
     from envs.video import record_episode
-    from sb3_comm import CommDDPG
 
-    model = CommDDPG.load(args.model, device=args.device)
-    env_id = args.env or _env_of(Path(args.model))
+    model_path = _model_file(args.model)
+    suffix = "_nocomm" if args.no_comm else ""
+    out = Path(args.output) if args.output else model_path.with_name(f"{model_path.stem}{suffix}.gif")
+    if not out.parent.is_dir():
+        raise ValueError(f"--output {out}: the folder {out.parent} does not exist (or is not a folder)")
+    env_id = _check_env_id(args.env or _env_of(model_path))
+    model = _load_model(model_path, args.device)
     env = gym.make(env_id, render_mode="rgb_array")
     layout = model.comm_layout
 
@@ -121,9 +224,6 @@ def _record_video(args: argparse.Namespace) -> int:
         action, _ = model.predict(obs, deterministic=True)
         return action
 
-    model_path = Path(args.model)
-    suffix = "_nocomm" if args.no_comm else ""
-    out = Path(args.output) if args.output else model_path.with_name(f"{model_path.stem}{suffix}.gif")
     for episode in range(args.episodes):
         path = out if args.episodes == 1 else out.with_name(f"{out.stem}_{episode}{out.suffix}")
         record_episode(env, policy, path, fps=args.fps, seed=args.seed + episode)
@@ -199,9 +299,14 @@ def _report(args: argparse.Namespace) -> int:
 
 def _env_of(model_path: Path) -> str:
     config = model_path.parent / "config.yml"
-    if config.exists():
-        return next(iter(yaml.safe_load(config.read_text())))
-    raise ValueError(f"Cannot tell the environment of {model_path}: pass --env")
+    if config.is_file():
+        try:
+            entries = yaml.safe_load(config.read_text())
+        except yaml.YAMLError as error:
+            raise ValueError(f"{config} is not valid YAML; pass --env") from error
+        if isinstance(entries, dict) and entries:
+            return str(next(iter(entries)))
+    raise ValueError(f"Cannot tell the environment of {model_path} (no run config.yml beside it): pass --env")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -211,6 +316,13 @@ def build_parser() -> argparse.ArgumentParser:
     from sb3_comm.registration import TASK_IDS
 
     parser = argparse.ArgumentParser(prog="sb3-comm", description="Agents that learn to communicate (SB3).")
+    parser.add_argument(
+        "-v",
+        "--verbose",
+        dest="traceback",
+        action="store_true",
+        help="on an error, print the full traceback (before the command: sb3-comm -v train ...)",
+    )
     sub = parser.add_subparsers(dest="command", required=True)
 
     train = sub.add_parser("train", help="train a method on a task with the packaged configuration")
@@ -218,24 +330,29 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument(
         "--method", required=True, type=str.upper, choices=METHODS, help="communication method"
     )
-    train.add_argument("--timesteps", "-n", type=int, default=None, help="override n_timesteps")
-    train.add_argument("--n-envs", type=int, default=None, help="override n_envs (parallel games)")
+    train.add_argument("--timesteps", "-n", type=_count(1), default=None, help="override n_timesteps")
+    train.add_argument("--n-envs", type=_count(1), default=None, help="override n_envs (parallel games)")
     train.add_argument("--seed", type=int, default=0)
     train.add_argument("--conf", "-conf", default=None, help="hyperparameter YAML (default: packaged)")
     train.add_argument("--params", "-params", nargs="*", help="overrides key=value")
     train.add_argument("--log-folder", "-f", default="runs", help="where run folders go")
-    train.add_argument("--eval-freq", type=int, default=25_000, help="evaluate every N env steps")
-    train.add_argument("--eval-episodes", type=int, default=100)
-    train.add_argument("--save-freq", type=int, default=100_000, help="checkpoint every N env steps")
+    train.add_argument("--eval-freq", type=_count(1), default=25_000, help="evaluate every N env steps")
+    train.add_argument("--eval-episodes", type=_count(1), default=100)
+    train.add_argument(
+        "--save-freq",
+        type=_count(0, " (0: no checkpoints)"),
+        default=100_000,
+        help="checkpoint every N env steps (0: no checkpoints)",
+    )
     train.add_argument("--device", default="cpu")
     train.add_argument("--no-progress-bar", action="store_true")
-    train.add_argument("--verbose", type=int, default=0)
+    train.add_argument("--verbose", type=int, default=0, help="verbosity of the algorithm (0, 1, 2)")
     train.set_defaults(func=_train)
 
     evaluate = sub.add_parser("evaluate", help="evaluate a saved model, optionally with ablated messages")
     evaluate.add_argument("model", help="path of a saved model.zip")
     evaluate.add_argument("--env", default=None, help="task id (default: from the run's config.yml)")
-    evaluate.add_argument("--episodes", type=int, default=100)
+    evaluate.add_argument("--episodes", type=_count(1), default=100)
     evaluate.add_argument("--seed", type=int, default=12345)
     evaluate.add_argument("--ablation", choices=ABLATIONS, default="none")
     evaluate.add_argument("--device", default="cpu")
@@ -245,9 +362,9 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("model", help="path of a saved model.zip")
     video.add_argument("--env", default=None, help="task id (default: from the run's config.yml)")
     video.add_argument("--output", "-o", default=None, help="file .gif or .mp4 (default: next to the model)")
-    video.add_argument("--episodes", type=int, default=1)
+    video.add_argument("--episodes", type=_count(1), default=1)
     video.add_argument("--seed", type=int, default=0)
-    video.add_argument("--fps", type=int, default=10)
+    video.add_argument("--fps", type=_count(1), default=10)
     video.add_argument("--no-comm", action="store_true", help="receivers hear zeros (the paper's ablation)")
     video.add_argument("--device", default="cpu")
     video.set_defaults(func=_record_video)
@@ -307,17 +424,39 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_USER_FILE_ERRORS = (
+    FileNotFoundError,
+    FileExistsError,
+    NotADirectoryError,
+    IsADirectoryError,
+    PermissionError,
+)
+"""File errors that follow from what the user gave (a path), not from the machine."""
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``sb3-comm``."""
+    """Entry point of ``sb3-comm``.
+
+    A user's mistake (a ``ValueError``, an experiment folder held by another runner, or a file
+    error such as a missing file or a folder that cannot be written) prints one line
+    ``sb3-comm: error: ...`` and returns 2, as argparse does. Any other ``OSError`` (a full disk,
+    a lost mount) prints one line and returns 1; the files already written are whole.
+    ``sb3-comm -v ...`` prints the traceback too. Other exceptions are bugs and propagate.
+    """
     from sb3_comm.common.files import FolderLockedError, describe_os_error
 
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))
-    except (ValueError, FileNotFoundError, FolderLockedError) as error:
-        print(f"sb3-comm: error: {error}", file=sys.stderr)
+    except (ValueError, FolderLockedError, *_USER_FILE_ERRORS) as error:
+        if args.traceback:
+            traceback.print_exc()
+        message = " ".join(line.strip() for line in str(error).splitlines() if line.strip())
+        print(f"sb3-comm: error: {message or type(error).__name__}", file=sys.stderr)
         return 2
-    except OSError as error:  # a full disk, a lost mount: one line; the files written are whole
+    except OSError as error:
+        if args.traceback:
+            traceback.print_exc()
         print(f"sb3-comm: error: {describe_os_error(error)}", file=sys.stderr)
         return 1
 

@@ -28,6 +28,7 @@ from typing import Any
 import yaml
 
 from sb3_comm.common.hyperparams import algorithm_kwargs, canonical_value
+from sb3_comm.common.validation import check_hyperparameters
 
 __all__ = [
     "CONFIG_DIR",
@@ -175,7 +176,8 @@ class RunConfig:
         """Check a file's entry (rl-zoo3 keys plus CommDDPG arguments) and build the configuration.
 
         :raises ValueError: unknown method or key, a ``policy`` that contradicts ``method``,
-            ``policy_kwargs`` that is not a mapping, a bad ``lin_`` schedule or budget.
+            ``policy_kwargs`` that is not a mapping, a bad ``lin_`` schedule or budget, or a value of
+            the wrong type or out of range (:data:`sb3_comm.common.validation.HYPERPARAMETERS`).
         """
         method = _check_method(method)
         where = f"{source or 'hyperparameters'}: {task!r}"
@@ -191,6 +193,10 @@ class RunConfig:
             )
         n_envs = _whole(settings.pop("n_envs", DEFAULT_N_ENVS), "n_envs", where)
         n_timesteps = _whole(settings.pop("n_timesteps", DEFAULT_N_TIMESTEPS), "n_timesteps", where)
+        try:  # the algorithm's own checks, on the values it will receive, before anything is built
+            check_hyperparameters(algorithm_kwargs(settings))
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"{where}: {error}") from None
         return cls(method, task, n_envs, n_timesteps, settings, int(seed), source)
 
     @classmethod

@@ -39,6 +39,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from sb3_comm.callbacks import TeamEvalCallback
 from sb3_comm.comm_ddpg import CommDDPG
 from sb3_comm.common.files import atomic_path, write_text
+from sb3_comm.common.validation import Range
 from sb3_comm.config import RunConfig
 from sb3_comm.evaluation import ABLATIONS, evaluate_team
 from sb3_comm.registration import make_comm_vec_env
@@ -76,6 +77,11 @@ class EvalSettings:
     analysis_episodes: int = 0
     analysis_seed: int = 0
     target_return: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("freq", "episodes"):
+            Range(1, whole=True)(name, getattr(self, name))
+        Range(0, whole=True)("analysis_episodes", self.analysis_episodes)
 
     def describe(self) -> dict[str, Any]:
         """The ``eval`` entry of a :class:`~sb3_comm.results.RunResult`."""
@@ -195,6 +201,8 @@ def train_run(
     :return: the :class:`~sb3_comm.results.RunResult`, also written to ``run_dir/result.json``.
     """
     run_dir = Path(run_dir)
+    if save_freq < 0:
+        raise ValueError(f"save_freq must be a whole number ≥ 0 (0: no checkpoints), got {save_freq}")
     run_dir.mkdir(parents=True, exist_ok=True)
     try:
         return _train_run(
@@ -221,8 +229,9 @@ def _train_run(
     began = time.perf_counter()
     started = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
     (run_dir / "error.txt").unlink(missing_ok=True)  # this attempt's outcome replaces an earlier one's
-    write_text(run_dir / "config.yml", config.to_yaml())
+    # Built before config.yml is written: a run that cannot start leaves no configuration behind.
     model = build_model(config, tensorboard_log=str(run_dir / "tb"), device=device, verbose=verbose)
+    write_text(run_dir / "config.yml", config.to_yaml())
     evaluator = TeamEvalCallback(
         config.task,
         eval_freq=settings.freq,

@@ -354,17 +354,18 @@ def test_resume_skips_finished_runs_and_retrains_unfinished_ones(
 
 
 def test_a_failing_run_is_reported_and_the_others_finish(tmp_path: Path, capsys, fake_analysis) -> None:
-    # A negative layer width passes the file check but raises when the model is built.
-    broken = {"all": TINY_HYPERPARAMS, "GSN": {"policy_kwargs": {"net_arch": [-4]}}}
+    # A policy option that the policy does not take passes the file check but raises when the model is
+    # built (values such as a negative layer width are refused by the file check itself).
+    broken = {"all": TINY_HYPERPARAMS, "GSN": {"policy_kwargs": {"net_arch": [8], "no_such_option": 1}}}
     file = write(tmp_path / "exp.yml", tiny(hyperparams=broken))
     out = tmp_path / "out"
     assert main(["experiment", str(file), "--out", str(out), "--workers", "0"]) == 1
     stdout = capsys.readouterr().out
-    assert "FAILED  GSN/GuessMyNumber-v0/0: RuntimeError" in stdout
+    assert "FAILED  GSN/GuessMyNumber-v0/0: TypeError" in stdout
     assert f"--out {out} --only GSN/GuessMyNumber-v0/0" in stdout and "--rerun-failed" in stdout
     assert set(results(out)) == {"NONE/GuessMyNumber-v0/0"}
     (error_file,) = (out / "runs").rglob("error.txt")
-    assert "Traceback" in error_file.read_text() and "negative dimension" in error_file.read_text()
+    assert "Traceback" in error_file.read_text() and "no_such_option" in error_file.read_text()
     summary = json.loads((out / "summary.json").read_text())
     assert {row["key"]: row["status"] for row in summary["runs"]} == {
         "NONE/GuessMyNumber-v0/0": "done",

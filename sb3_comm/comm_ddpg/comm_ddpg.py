@@ -38,7 +38,8 @@ from sb3_comm.comm_ddpg.gsn import GSNTrainingCallback
 from sb3_comm.comm_ddpg.methods import METHODS, TCG
 from sb3_comm.comm_ddpg.policies import CommPolicy, GSNPolicy, NonePolicy, RIALPolicy, TCGPolicy
 from sb3_comm.common.layout import CommLayout
-from sb3_comm.hybrid_ddpg.hybrid_ddpg import HybridDDPG, check_schedule
+from sb3_comm.common.validation import check_hyperparameters
+from sb3_comm.hybrid_ddpg.hybrid_ddpg import HybridDDPG
 
 __all__ = ["METHODS", "CommDDPG", "HybridDDPG"]
 
@@ -76,7 +77,7 @@ class CommDDPG(HybridDDPG):
     :param channel_size: expected message size; must match the environment's (None: take it).
     :param share_parameters: one set of networks for both agents (role one-hot in the observation)
         or one per agent, as in the paper.
-    :param max_grad_norm: gradient clipping of actor, critic and GSN (reference: 10).
+    :param max_grad_norm: gradient clipping of actor, critic and GSN (reference: 10; None: no clipping).
     :param action_noise: optional SB3 action noise added on top of the exploration.
     :param replay_buffer_kwargs: extra arguments of :class:`JointReplayBuffer`.
     :param policy_delay: actor update every ``policy_delay`` critic updates (1: DDPG).
@@ -123,7 +124,7 @@ class CommDDPG(HybridDDPG):
         tcg_gain: float = 1.0,
         channel_size: int | None = None,
         share_parameters: bool = True,
-        max_grad_norm: float = 10.0,
+        max_grad_norm: float | None = 10.0,
         action_noise: ActionNoise | None = None,
         replay_buffer_kwargs: dict[str, Any] | None = None,
         policy_delay: int = 1,
@@ -137,7 +138,15 @@ class CommDDPG(HybridDDPG):
         device: th.device | str = "auto",
         _init_setup_model: bool = True,
     ) -> None:
-        self.gsn_learning_rate = check_schedule("gsn_learning_rate", gsn_learning_rate)
+        check_hyperparameters(
+            {
+                "gsn_learning_rate": gsn_learning_rate,
+                "tcg_gain": tcg_gain,
+                "channel_size": channel_size,
+                "share_parameters": share_parameters,
+            }
+        )  # the shared arguments are checked by HybridDDPG
+        self.gsn_learning_rate = gsn_learning_rate
         self.tcg_gain = tcg_gain
         self.channel_size = channel_size
         self.share_parameters = share_parameters
@@ -189,10 +198,13 @@ class CommDDPG(HybridDDPG):
         saved = self.policy_kwargs.get("comm_layout")
         if self.env is None:
             if saved is None:
-                raise ValueError("CommDDPG needs an environment to learn its layout")
+                raise ValueError(
+                    "CommDDPG found no team layout ('comm_layout') in the saved settings: the file was not "
+                    "saved by sb3_comm.CommDDPG (a one-agent HybridDDPG or another algorithm's model?)"
+                )
             return saved
         try:
-            layout = self.env.get_attr("comm_layout", indices=[0])[0]
+            layouts = self.env.get_attr("comm_layout")
         except AttributeError:
             raise ValueError(
                 "CommDDPG needs a two-agent environment with a message channel: a registered id "
@@ -200,6 +212,14 @@ class CommDDPG(HybridDDPG):
                 f"sb3_comm.make_comm_vec_env(...); got an environment with observation space "
                 f"{self.observation_space} and no 'comm_layout' (one agent: sb3_comm.HybridDDPG)"
             ) from None
+        layout = layouts[0]
+        mixed = [i for i, other in enumerate(layouts) if other != layout]
+        if mixed:
+            raise ValueError(
+                f"The VecEnv mixes tasks: its environments {mixed} have another layout than environment 0 "
+                f"(agents {list(layouts[mixed[0]].agent_names)} vs {list(layout.agent_names)}); "
+                "one CommDDPG trains on one task"
+            )
         if saved is not None and saved != layout:
             raise ValueError(f"The environment's layout {layout} differs from the model's {saved}")
         return layout

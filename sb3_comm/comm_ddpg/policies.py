@@ -164,6 +164,10 @@ class CommPolicy(HybridPolicy):
         return th.cat([out[..., : self.env_action_dim], self.messages(obs, out)], dim=-1)
 
     # ---------------------------------------------------------------------------- SB3 API --
+    def observation_agents(self) -> tuple[str, ...]:
+        """Names of the agent rows of an observation, for error messages."""
+        return tuple(self.comm_layout.agent_names)
+
     def _predict(self, observation: PyTorchObs, deterministic: bool = True) -> th.Tensor:
         obs = observation.reshape(observation.shape[0], *self.observation_space.shape)  # type: ignore[union-attr, misc]
         actions = self.assemble_actions(obs, self.actor_outputs(obs)).clamp(-1.0, 1.0)

@@ -18,7 +18,6 @@ with what the ICLR agent added:
 
 from __future__ import annotations
 
-import numbers
 from typing import Any, ClassVar, TypeVar
 
 import numpy as np
@@ -34,6 +33,7 @@ from torch.nn import functional as F
 from sb3_comm.common.buffers import MonteCarloReplayBuffer, MonteCarloReplayBufferSamples
 from sb3_comm.common.layout import HybridActionLayout
 from sb3_comm.common.networks import inverting_gradients
+from sb3_comm.common.validation import HYPERPARAMETERS, Range, check_hyperparameters
 from sb3_comm.hybrid_ddpg.policies import HybridPolicy
 
 __all__ = ["HybridDDPG", "check_schedule"]
@@ -42,24 +42,16 @@ SelfHybridDDPG = TypeVar("SelfHybridDDPG", bound="HybridDDPG")
 
 
 def check_schedule(name: str, value: Any) -> float | Schedule:
-    """A learning rate as SB3 takes it: a number, or a callable of the remaining progress.
+    """A learning rate as SB3 takes it: a number > 0, or a callable of the remaining progress whose
+    value at progress 1.0 is finite and > 0 (:class:`~sb3_comm.common.validation.LearningRate`).
 
     :param name: the parameter's name (for the error message).
     :param value: the value given.
     :raises TypeError: for anything else, e.g. the string ``"lin_1e-4"`` of a config file.
+    :raises ValueError: a rate (or a schedule's first value) that is not finite and > 0.
     """
-    if (isinstance(value, numbers.Real) and not isinstance(value, bool)) or callable(value):
-        return value
-    hint = ""
-    if isinstance(value, str):
-        hint = (
-            "; strings such as 'lin_1e-4' or '1e-4' belong in hyperparameter files, which "
-            "sb3_comm.config converts (sb3_comm.common.hyperparams.algorithm_kwargs)"
-        )
-    raise TypeError(
-        f"{name} must be a float or a callable schedule (e.g. "
-        f"stable_baselines3.common.utils.LinearSchedule), got {value!r}{hint}"
-    )
+    HYPERPARAMETERS["learning_rate"](name, value)
+    return value
 
 
 class HybridDDPG(TD3):
@@ -87,7 +79,7 @@ class HybridDDPG(TD3):
     :param gaussian_noise_std: standard deviation of the Gaussian exploration (scaled units).
     :param mc_mixing: β of the critic target ``y = β·G_t + (1 − β)·(r + γ Q'(s', μ'(s')))``
         (reference code and default: 0.5).
-    :param max_grad_norm: gradient clipping of actor and critic (reference: 10).
+    :param max_grad_norm: gradient clipping of actor and critic (reference: 10; None: no clipping).
     :param action_noise: optional SB3 action noise added on top of the exploration.
     :param replay_buffer_class: a :class:`MonteCarloReplayBuffer` subclass (None: that class).
     :param replay_buffer_kwargs: extra arguments of the replay buffer.
@@ -126,7 +118,7 @@ class HybridDDPG(TD3):
         exploration_fraction: float = 0.2,
         gaussian_noise_std: float = 0.1,
         mc_mixing: float = 0.5,
-        max_grad_norm: float = 10.0,
+        max_grad_norm: float | None = 10.0,
         action_noise: ActionNoise | None = None,
         replay_buffer_class: type[MonteCarloReplayBuffer] | None = None,
         replay_buffer_kwargs: dict[str, Any] | None = None,
@@ -141,12 +133,9 @@ class HybridDDPG(TD3):
         device: th.device | str = "auto",
         _init_setup_model: bool = True,
     ) -> None:
-        if exploration not in ("epsilon", "gaussian"):
-            raise ValueError(f"exploration must be 'epsilon' or 'gaussian', got {exploration!r}")
-        if not 0.0 <= mc_mixing <= 1.0:
-            raise ValueError(f"mc_mixing (β) must lie in [0, 1], got {mc_mixing}")
-        learning_rate = check_schedule("learning_rate", learning_rate)
-        self.actor_learning_rate = check_schedule("actor_learning_rate", actor_learning_rate)
+        # Every argument is checked here, once (sb3_comm.common.validation holds what each accepts).
+        check_hyperparameters(locals())
+        self.actor_learning_rate = actor_learning_rate
         self.exploration = exploration
         self.exploration_initial_eps = exploration_initial_eps
         self.exploration_final_eps = exploration_final_eps
@@ -418,7 +407,8 @@ class HybridDDPG(TD3):
         reset_num_timesteps: bool = True,
         progress_bar: bool = False,
     ) -> SelfHybridDDPG:
-        """Train for ``total_timesteps`` environment steps, as in SB3."""
+        """Train for ``total_timesteps`` environment steps (≥ 1), as in SB3."""
+        Range(1.0)("total_timesteps", total_timesteps)
         return super().learn(
             total_timesteps=total_timesteps,
             callback=callback,

@@ -17,6 +17,7 @@ import re
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
 import torch as th
 from gymnasium import spaces
 from stable_baselines3.common.policies import BasePolicy
@@ -25,6 +26,7 @@ from torch import nn
 
 from sb3_comm.common.layout import HybridActionLayout
 from sb3_comm.common.networks import mlp
+from sb3_comm.common.validation import check_observation
 
 __all__ = ["HybridPolicy"]
 
@@ -153,6 +155,24 @@ class HybridPolicy(BasePolicy):
 
     def _predict(self, observation: PyTorchObs, deterministic: bool = True) -> th.Tensor:
         return self.actor_outputs(observation).clamp(-1.0, 1.0)  # type: ignore[arg-type]
+
+    def observation_agents(self) -> tuple[str, ...] | None:
+        """Names of the agent rows of an observation, for error messages (None: one agent)."""
+        return None
+
+    def predict(
+        self,
+        observation: np.ndarray | dict[str, np.ndarray],
+        state: tuple[np.ndarray, ...] | None = None,
+        episode_start: np.ndarray | None = None,
+        deterministic: bool = False,
+    ) -> tuple[np.ndarray, tuple[np.ndarray, ...] | None]:
+        """SB3's ``predict``, refusing observations with NaN or inf (a NaN in gives NaN actions out).
+
+        :raises ValueError: naming the agent and the feature indices that are not finite.
+        """
+        check_observation(observation, self.observation_agents())
+        return super().predict(observation, state, episode_start, deterministic)
 
     def set_training_mode(self, mode: bool) -> None:
         """Train/eval mode of the trained networks (targets stay in eval mode)."""

@@ -16,6 +16,7 @@ import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
 from sb3_comm.common.layout import HybridActionLayout
+from sb3_comm.common.validation import check_observation
 from sb3_comm.wrappers.two_agent import RowCodec, check_action
 
 __all__ = ["BatchedTwoAgentVecEnv"]
@@ -51,7 +52,9 @@ class BatchedTwoAgentVecEnv(VecEnv):
     def _rows(self, obs: np.ndarray) -> np.ndarray:
         n = self.codec.channel_size
         size = obs.shape[-1]
-        return self.codec.observations([obs[:, 0, : size - n], obs[:, 1, : size - n]], obs[:, :, size - n :])
+        rows = self.codec.observations([obs[:, 0, : size - n], obs[:, 1, : size - n]], obs[:, :, size - n :])
+        check_observation(rows, self.agent_names, batch_name="games")  # blame the task, not the actions
+        return rows
 
     def reset(self) -> np.ndarray:
         """Reset every game (seeded by :meth:`seed` if it was called)."""

@@ -24,6 +24,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sb3_comm.common.layout import CommLayout, HybridActionLayout
+from sb3_comm.common.validation import check_observation
 
 __all__ = ["RowCodec", "TwoAgentEnv", "check_action", "make_task_env"]
 
@@ -198,7 +199,9 @@ class TwoAgentEnv(gym.Env):
         else:
             features = [r[None] for r in rows]
             messages = self._inbox[None]
-        return self.codec.observations(features, messages)[0]
+        rows = self.codec.observations(features, messages)[0]
+        check_observation(rows, self.agent_names)  # NaN from the environment: blame it, not the actions
+        return rows
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
