@@ -31,6 +31,8 @@ class TeamEvalCallback(BaseCallback):
     :param env_kwargs: task options.
     :param log_path: if given, the learning curve is rewritten to this JSON file after every
         evaluation (so a run that dies keeps it).
+    :param history: the curve of an earlier session of the same run (a resumed run): kept, and
+        continued (its last point's ``seconds`` is where the training time resumes counting).
     """
 
     def __init__(
@@ -43,6 +45,7 @@ class TeamEvalCallback(BaseCallback):
         seed: int = 12345,
         env_kwargs: dict[str, Any] | None = None,
         log_path: str | Path | None = None,
+        history: list[dict[str, float]] | None = None,
         verbose: int = 0,
     ) -> None:
         super().__init__(verbose)
@@ -54,9 +57,18 @@ class TeamEvalCallback(BaseCallback):
         self.seed = seed
         self.env_kwargs = env_kwargs
         self.log_path = Path(log_path) if log_path is not None else None
-        self.history: list[dict[str, float]] = []
+        self.history: list[dict[str, float]] = list(history or [])
         self.time_to_target: float | None = None
         self.steps_to_target: int | None = None
+        for point in self.history:
+            if (
+                target_return is not None
+                and self.time_to_target is None
+                and point["mean_return"] >= target_return
+            ):
+                self.time_to_target, self.steps_to_target = point["seconds"], int(point["timesteps"])
+        self.seconds_offset = float(self.history[-1]["seconds"]) if self.history else 0.0
+        """Training seconds of earlier sessions (a resumed run), added to this session's."""
         self._next_eval = 0
         self._start = 0.0
         self.eval_seconds = 0.0
@@ -64,7 +76,8 @@ class TeamEvalCallback(BaseCallback):
 
     def _on_training_start(self) -> None:
         self._start = time.perf_counter()
-        self._next_eval = self.num_timesteps + self.eval_freq
+        # On the grid of eval_freq steps, so that a resumed run evaluates where it would have.
+        self._next_eval = (self.num_timesteps // self.eval_freq + 1) * self.eval_freq
 
     def evaluate(self) -> dict[str, float]:
         """Run one evaluation now, log it and append it to :attr:`history`."""
@@ -75,7 +88,7 @@ class TeamEvalCallback(BaseCallback):
         self.eval_seconds += time.perf_counter() - began
         summary = result.summary()
         # Training time excludes the evaluations themselves.
-        elapsed = time.perf_counter() - self._start - self.eval_seconds
+        elapsed = time.perf_counter() - self._start - self.eval_seconds + self.seconds_offset
         point = {"timesteps": self.num_timesteps, "seconds": elapsed, **summary}
         self.history.append(point)
         self.logger.record("eval/mean_return", summary["mean_return"])

@@ -1,6 +1,7 @@
 """The ``sb3-comm`` command line: train, evaluate, record-video, zoo, experiment, reproduce, report.
 
-    sb3-comm train --env BlindSoccer-v0 --method GSN
+    sb3-comm train --env BlindSoccer-v0 --method GSN [--save-replay-buffer]
+    sb3-comm train --resume runs/BlindSoccer-v0/GSN_seed0          # continue an interrupted run
     sb3-comm evaluate runs/BlindSoccer-v0/GSN_seed0/model.zip --ablation zero
     sb3-comm record-video runs/BlindSoccer-v0/GSN_seed0/model.zip -o gsn.gif [--no-comm]
     sb3-comm zoo train --env BlindSoccer-v0 --method GSN -f logs   # rl-zoo3, every flag
@@ -11,7 +12,9 @@
 ``train`` reads the packaged hyperparameters of the method (``zoo_configs/<method>.yml``), trains
 with a progress bar, evaluates periodically, and writes TensorBoard logs, the learning curve, the
 model and the run's record (``result.json``) into a fresh run folder (an existing folder is never
-overwritten); it is a thin caller of :func:`sb3_comm.training.train_run`.
+overwritten); it is a thin caller of :func:`sb3_comm.training.train_run`. Ctrl-C or SIGTERM saves a
+checkpoint and prints how to resume (exit 130 / 143); ``--resume RUN_DIR`` continues that run
+(:func:`sb3_comm.training.resume_run`).
 """
 
 from __future__ import annotations
@@ -142,41 +145,31 @@ def _load_model(path: Path, device: str) -> CommDDPG:
         ) from error
 
 
-def _train(args: argparse.Namespace) -> int:
-    from sb3_comm.config import RunConfig
-    from sb3_comm.training import EvalSettings, train_run
+_RUN_FLAGS = {
+    "env": "--env",
+    "method": "--method",
+    "timesteps": "--timesteps",
+    "n_envs": "--n-envs",
+    "seed": "--seed",
+    "conf": "--conf",
+    "params": "--params",
+    "eval_freq": "--eval-freq",
+    "eval_episodes": "--eval-episodes",
+    "save_freq": "--save-freq",
+}
+"""Flags that define a run: a resume takes them from the run folder instead."""
 
-    overrides = parse_overrides(args.params)
-    if args.n_envs is not None:
-        overrides["n_envs"] = args.n_envs
-    if args.timesteps is not None:
-        overrides["n_timesteps"] = args.timesteps
-    # Checked in full (every value, RunConfig) before the run folder exists.
-    config = RunConfig.load(args.method, args.env, seed=args.seed, path=args.conf, overrides=overrides)
-    run_name = f"{config.method}_seed{config.seed}"
-    run_dir = _fresh_dir(Path(args.log_folder) / args.env / run_name, "--log-folder")
-    print(
-        f"Training CommDDPG {config.method} on {args.env}: {config.n_timesteps} steps, "
-        f"{config.n_envs} parallel games, seed {config.seed}"
-    )
-    print(f"Run folder: {run_dir}")
+
+def _train(args: argparse.Namespace) -> int:
+    from sb3_comm.training import TrainingInterrupted
+
     try:
-        result = train_run(
-            config,
-            run_dir,
-            evaluation=EvalSettings(freq=args.eval_freq, episodes=args.eval_episodes),
-            save_freq=args.save_freq,
-            device=args.device,
-            verbose=args.verbose,
-            eval_verbose=1,
-            progress_bar=not args.no_progress_bar,
-        )
-    except BaseException:
-        if not any(run_dir.iterdir()):  # failed before writing anything: leave no empty run folder
-            run_dir.rmdir()
-        raise
+        result, run_dir = _resume(args) if args.resume else _new_run(args)
+    except TrainingInterrupted as stopped:
+        print(f"sb3-comm: interrupted by {stopped}", file=sys.stderr)
+        return stopped.exit_code
     print(
-        f"Done in {result.wall_seconds:.0f} s. Final evaluation ({args.eval_episodes} episodes): "
+        f"Done in {result.wall_seconds:.0f} s. Final evaluation ({result.eval['episodes']} episodes): "
         f"mean return {result.curve[-1]['mean_return']:.4f}"
     )
     print(f"Model:       {run_dir / 'model.zip'}")
@@ -184,6 +177,69 @@ def _train(args: argparse.Namespace) -> int:
     print(f"Result:      {run_dir / 'result.json'}")
     print(f"TensorBoard: tensorboard --logdir {run_dir / 'tb'}")
     return 0
+
+
+def _resume(args: argparse.Namespace) -> tuple[Any, Path]:
+    from sb3_comm.training import resume_run
+
+    given = [flag for name, flag in _RUN_FLAGS.items() if getattr(args, name) is not None]
+    if given:
+        raise ValueError(f"--resume continues the run with its own settings; drop {', '.join(given)}")
+    run_dir = Path(args.resume)
+    print(f"Resuming {run_dir} from its last checkpoint (its config.yml and run_settings.json)")
+    result = resume_run(
+        run_dir,
+        save_replay_buffer=True if args.save_replay_buffer else None,
+        device=args.device,
+        verbose=args.verbose,
+        eval_verbose=1,
+        progress_bar=not args.no_progress_bar,
+    )
+    return result, run_dir
+
+
+def _new_run(args: argparse.Namespace) -> tuple[Any, Path]:
+    from sb3_comm.config import RunConfig
+    from sb3_comm.training import EvalSettings, train_run
+
+    if args.env is None or args.method is None:
+        raise ValueError("train needs --env and --method (or --resume RUN_DIR)")
+    overrides = parse_overrides(args.params)
+    if args.n_envs is not None:
+        overrides["n_envs"] = args.n_envs
+    if args.timesteps is not None:
+        overrides["n_timesteps"] = args.timesteps
+    seed = 0 if args.seed is None else args.seed
+    # Checked in full (every value, RunConfig) before the run folder exists.
+    config = RunConfig.load(args.method, args.env, seed=seed, path=args.conf, overrides=overrides)
+    run_name = f"{config.method}_seed{config.seed}"
+    run_dir = _fresh_dir(Path(args.log_folder) / args.env / run_name, "--log-folder")
+    print(
+        f"Training CommDDPG {config.method} on {args.env}: {config.n_timesteps} steps, "
+        f"{config.n_envs} parallel games, seed {config.seed}"
+    )
+    print(f"Run folder: {run_dir}")
+    evaluation = EvalSettings(
+        freq=25_000 if args.eval_freq is None else args.eval_freq,
+        episodes=100 if args.eval_episodes is None else args.eval_episodes,
+    )
+    try:
+        result = train_run(
+            config,
+            run_dir,
+            evaluation=evaluation,
+            save_freq=100_000 if args.save_freq is None else args.save_freq,
+            device=args.device,
+            verbose=args.verbose,
+            eval_verbose=1,
+            progress_bar=not args.no_progress_bar,
+            save_replay_buffer=args.save_replay_buffer,
+        )
+    except BaseException:
+        if not any(run_dir.iterdir()):  # failed before writing anything: leave no empty run folder
+            run_dir.rmdir()
+        raise
+    return result, run_dir
 
 
 def _evaluate(args: argparse.Namespace) -> int:
@@ -326,23 +382,36 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     train = sub.add_parser("train", help="train a method on a task with the packaged configuration")
-    train.add_argument("--env", required=True, choices=sorted(TASK_IDS), help="task id")
+    train.add_argument("--env", choices=sorted(TASK_IDS), help="task id (required unless --resume)")
     train.add_argument(
-        "--method", required=True, type=str.upper, choices=METHODS, help="communication method"
+        "--method", type=str.upper, choices=METHODS, help="communication method (required unless --resume)"
     )
     train.add_argument("--timesteps", "-n", type=_count(1), default=None, help="override n_timesteps")
     train.add_argument("--n-envs", type=_count(1), default=None, help="override n_envs (parallel games)")
-    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--seed", type=int, default=None, help="training seed (default 0)")
     train.add_argument("--conf", "-conf", default=None, help="hyperparameter YAML (default: packaged)")
     train.add_argument("--params", "-params", nargs="*", help="overrides key=value")
     train.add_argument("--log-folder", "-f", default="runs", help="where run folders go")
-    train.add_argument("--eval-freq", type=_count(1), default=25_000, help="evaluate every N env steps")
-    train.add_argument("--eval-episodes", type=_count(1), default=100)
+    train.add_argument(
+        "--eval-freq", type=_count(1), default=None, help="evaluate every N env steps (default 25000)"
+    )
+    train.add_argument("--eval-episodes", type=_count(1), default=None, help="games per evaluation (100)")
     train.add_argument(
         "--save-freq",
         type=_count(0, " (0: no checkpoints)"),
-        default=100_000,
-        help="checkpoint every N env steps (0: no checkpoints)",
+        default=None,
+        help="checkpoint every N env steps (default 100000; 0: no checkpoints)",
+    )
+    train.add_argument(
+        "--save-replay-buffer",
+        action="store_true",
+        help="save the replay buffer with every checkpoint, so that --resume continues with it",
+    )
+    train.add_argument(
+        "--resume",
+        metavar="RUN_DIR",
+        default=None,
+        help="continue an interrupted run from its last checkpoint, with its own settings",
     )
     train.add_argument("--device", default="cpu")
     train.add_argument("--no-progress-bar", action="store_true")
@@ -459,6 +528,9 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exc()
         print(f"sb3-comm: error: {describe_os_error(error)}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # Ctrl-C outside training (which saves and resumes, see train)
+        print("sb3-comm: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -131,6 +131,14 @@ class MonteCarloReplayBuffer(BaseBuffer):
                     self.mc_valid[p, env] = 1.0
                 self._episode_positions[env] = []
 
+    def close_open_episodes(self) -> None:
+        """Forget the episodes still running (after a load: the environments restart).
+
+        Their transitions keep no Monte-Carlo return (``mc_valid`` 0, the TD target); without this,
+        the first episode after the restart would be summed onto them.
+        """
+        self._episode_positions = [[] for _ in range(self.n_envs)]
+
     def sample(self, batch_size: int, env: VecNormalize | None = None) -> MonteCarloReplayBufferSamples:
         """Uniform sample of ``batch_size`` transitions (env and step drawn uniformly)."""
         upper = self.buffer_size if self.full else self.pos

@@ -18,6 +18,13 @@ with what the ICLR agent added:
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
+import io
+import json
+import pathlib
+import pickle
+import zipfile
 from typing import Any, ClassVar, TypeVar
 
 import numpy as np
@@ -26,7 +33,8 @@ from gymnasium import spaces
 from stable_baselines3 import TD3
 from stable_baselines3.common.noise import ActionNoise
 from stable_baselines3.common.policies import BasePolicy
-from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule
+from stable_baselines3.common.save_util import load_from_pkl
+from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule, TrainFreq
 from stable_baselines3.common.utils import FloatSchedule, LinearSchedule, obs_as_tensor, polyak_update
 from torch.nn import functional as F
 
@@ -36,9 +44,28 @@ from sb3_comm.common.networks import inverting_gradients
 from sb3_comm.common.validation import HYPERPARAMETERS, Range, check_hyperparameters
 from sb3_comm.hybrid_ddpg.policies import HybridPolicy
 
-__all__ = ["HybridDDPG", "check_schedule"]
+__all__ = ["WEIGHTS_FORMAT", "HybridDDPG", "check_schedule"]
 
 SelfHybridDDPG = TypeVar("SelfHybridDDPG", bound="HybridDDPG")
+
+WEIGHTS_FORMAT = 1
+"""Version of the ``config.json`` written by :meth:`HybridDDPG.save_weights`."""
+
+# Constructor arguments that are not settings of the model (or are stored apart, as policy_kwargs).
+_NOT_WEIGHTS_SETTINGS = {
+    "self",
+    "policy",
+    "env",
+    "tensorboard_log",
+    "verbose",
+    "seed",
+    "device",
+    "_init_setup_model",
+    "policy_kwargs",
+    "action_noise",
+    "replay_buffer_class",
+    "replay_buffer_kwargs",
+}
 
 
 def check_schedule(name: str, value: Any) -> float | Schedule:
@@ -398,6 +425,198 @@ class HybridDDPG(TD3):
     def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
         return ["policy", "actor.optimizer", "critic.optimizer"], []
 
+    def load_replay_buffer(
+        self, path: str | pathlib.Path | io.BufferedIOBase, truncate_last_traj: bool = True
+    ) -> None:
+        """Load a replay buffer written by :meth:`save_replay_buffer`, checked before it replaces the model's.
+
+        The loaded buffer must be of this model's kind: its class (a :class:`MonteCarloReplayBuffer`,
+        a :class:`~sb3_comm.comm_ddpg.buffers.JointReplayBuffer` for a team), observation and action
+        shapes, parallel games, agents and Monte-Carlo returns (with the same γ). Otherwise a
+        ``ValueError`` names every difference and the model keeps its buffer. Episodes that were
+        still running when the buffer was saved are closed without a Monte-Carlo return (the
+        environment restarts; their transitions keep the TD target).
+
+        The file is a pickle, as in SB3: load only files you trust.
+
+        :param path: the file (SB3 adds ``.pkl`` when missing).
+        :param truncate_last_traj: SB3's argument for HER buffers; unused here.
+        """
+        try:
+            buffer = load_from_pkl(path, self.verbose)
+        except FileNotFoundError:
+            raise
+        except Exception as error:  # a truncated or foreign file: name it, keep the model's buffer
+            raise ValueError(
+                f"{path} is not a readable replay buffer ({type(error).__name__}: {error})"
+            ) from error
+        problems = self.replay_buffer_mismatch(buffer)
+        if problems:
+            raise ValueError(
+                f"The replay buffer in {path} does not fit this model: {'; '.join(problems)} "
+                "(the model's replay buffer is unchanged)"
+            )
+        buffer.device = self.device
+        buffer.close_open_episodes()
+        self.replay_buffer = buffer
+
+    def replay_buffer_mismatch(self, buffer: Any) -> list[str]:
+        """How ``buffer`` differs from a replay buffer of this model (empty: it fits).
+
+        :param buffer: a loaded replay buffer (any object).
+        :return: one description per difference, e.g. ``"n_envs 4 (model: 2)"``.
+        """
+        expected_class = self.replay_buffer_class or MonteCarloReplayBuffer
+        if not isinstance(buffer, expected_class):
+            return [f"it is a {type(buffer).__name__}, not a {expected_class.__name__}"]
+        reference = self.replay_buffer
+        wanted = {
+            "observation shape": tuple(self.observation_space.shape),  # type: ignore[arg-type]
+            "action shape": tuple(self.action_space.shape),  # type: ignore[arg-type]
+            "n_envs": self.n_envs,
+            "n_agents": getattr(reference, "n_agents", 1),
+            "Monte-Carlo returns": self.mc_mixing > 0,
+        }
+        found = {
+            "observation shape": tuple(buffer.observation_space.shape),
+            "action shape": tuple(buffer.action_space.shape),
+            "n_envs": buffer.n_envs,
+            "n_agents": getattr(buffer, "n_agents", 1),
+            "Monte-Carlo returns": bool(buffer.store_mc_returns),
+        }
+        problems = [
+            f"{key} {found[key]!r} (model: {wanted[key]!r})" for key in wanted if found[key] != wanted[key]
+        ]
+        if buffer.store_mc_returns and buffer.gamma != self.gamma:
+            problems.append(f"Monte-Carlo returns discounted with gamma {buffer.gamma} (model: {self.gamma})")
+        return problems
+
+    # ------------------------------------------------------------- weights without pickle --
+    @classmethod
+    def _weights_algorithm(cls) -> type[HybridDDPG]:
+        """The package class this class builds (a subclass such as rl-zoo3's counts as its base)."""
+        for klass in cls.__mro__:
+            if "__init__" in vars(klass) and "learning_rate" in inspect.signature(klass.__init__).parameters:
+                return klass
+        return HybridDDPG
+
+    def _layout_description(self) -> dict[str, Any] | None:
+        layout = getattr(self, "comm_layout", None) or self.policy_kwargs.get("hybrid_layout")
+        return json.loads(json.dumps(dataclasses.asdict(layout))) if layout is not None else None
+
+    def weights_config(self) -> dict[str, Any]:
+        """The JSON configuration written next to the weights by :meth:`save_weights`.
+
+        ``algorithm``, ``method``, the environment ``layout`` (checked against the environment on
+        loading), ``policy_kwargs`` (classes such as ``activation_fn`` by their ``torch.nn`` or
+        ``torch.optim`` name) and the constructor's plain ``hyperparameters``; settings that are
+        not plain values (schedules given as callables) are listed under ``not_stored``.
+        """
+        algorithm = self._weights_algorithm()
+        params = inspect.signature(algorithm.__init__).parameters
+        hyperparameters: dict[str, Any] = {}
+        not_stored: list[str] = []
+        for name in params:
+            if name in _NOT_WEIGHTS_SETTINGS:
+                continue
+            # SB3 keeps some arguments with a leading underscore (stats_window_size).
+            value = getattr(self, name) if hasattr(self, name) else getattr(self, f"_{name}", None)
+            if isinstance(value, TrainFreq):
+                value = [value.frequency, value.unit.value]
+            if value is None or isinstance(value, bool | int | float | str | list):
+                hyperparameters[name] = value
+            else:
+                not_stored.append(name)
+        policy_kwargs = {}
+        for key, value in self.policy_kwargs.items():
+            if key in ("comm_layout", "hybrid_layout", "share_parameters"):
+                continue  # from the environment, or a hyperparameter
+            policy_kwargs[key] = _class_name(key, value)
+        return {
+            "format": WEIGHTS_FORMAT,
+            "algorithm": algorithm.__name__,
+            "method": getattr(self, "method", None),
+            "layout": self._layout_description(),
+            "policy_kwargs": policy_kwargs,
+            "hyperparameters": hyperparameters,
+            "not_stored": not_stored,
+        }
+
+    def save_weights(self, path: str | pathlib.Path) -> pathlib.Path:
+        """Save the networks' weights and a JSON configuration: a model file to share without pickles.
+
+        Writes ``policy.pth`` (``torch.save`` of the policy's ``state_dict``: tensors only) and
+        ``config.json`` (:meth:`weights_config`), into the folder ``path``, or into one archive when
+        ``path`` ends in ``.zip``. :meth:`load_weights` reads them back without unpickling anything.
+        The optimizers, the replay buffer and the counters are not saved: this is for using and
+        sharing a trained model; continue training from :meth:`save`'s file.
+
+        :param path: a folder, or a ``.zip`` file.
+        :return: the path written.
+        """
+        config = json.dumps(self.weights_config(), indent=2)
+        weights = io.BytesIO()
+        th.save(self.policy.state_dict(), weights)
+        path = pathlib.Path(path)
+        if path.suffix == ".zip":
+            path.parent.mkdir(parents=True, exist_ok=True)
+            with zipfile.ZipFile(path, "w") as archive:
+                archive.writestr("config.json", config)
+                archive.writestr("policy.pth", weights.getvalue())
+        else:
+            path.mkdir(parents=True, exist_ok=True)
+            (path / "config.json").write_text(config)
+            (path / "policy.pth").write_bytes(weights.getvalue())
+        return path
+
+    @classmethod
+    def load_weights(
+        cls: type[SelfHybridDDPG],
+        path: str | pathlib.Path,
+        env: GymEnv | str,
+        device: th.device | str = "auto",
+        **kwargs: Any,
+    ) -> SelfHybridDDPG:
+        """A model built from :meth:`save_weights`' files, with nothing unpickled.
+
+        The configuration is JSON and the weights are read with ``torch.load(..., weights_only=True)``,
+        which accepts tensors and refuses any other object: a crafted file cannot run code here
+        (unlike :meth:`load`, which unpickles, as SB3 does).
+
+        :param path: the folder or ``.zip`` written by :meth:`save_weights`.
+        :param env: the environment (an id or an environment), whose layout must match the saved one.
+        :param device: torch device.
+        :param kwargs: settings that replace the saved hyperparameters (e.g. ``buffer_size``).
+        :raises ValueError: a file that is not such a model, a weights file holding anything but
+            tensors, a model of another algorithm, or an environment of another layout.
+        """
+        path = pathlib.Path(path)
+        config, state = _read_weights(path, device)
+        algorithm = cls._weights_algorithm()
+        if config.get("algorithm") != algorithm.__name__:
+            raise ValueError(f"{path} holds a {config.get('algorithm')} model; load it with that class")
+        settings = dict(config.get("hyperparameters", {}))
+        if isinstance(settings.get("train_freq"), list):
+            settings["train_freq"] = tuple(settings["train_freq"])
+        policy_kwargs = {key: _class_of(key, value) for key, value in config.get("policy_kwargs", {}).items()}
+        model = cls(
+            config.get("method") or "MlpPolicy",
+            env,
+            policy_kwargs=policy_kwargs,
+            device=device,
+            **{**settings, **kwargs},
+        )
+        if model._layout_description() != config.get("layout"):
+            raise ValueError(
+                f"{path} was trained on an environment of layout {config.get('layout')}; "
+                f"this one has {model._layout_description()}"
+            )
+        try:
+            model.policy.load_state_dict(state)
+        except RuntimeError as error:
+            raise ValueError(f"{path}: the weights do not fit the configured networks: {error}") from error
+        return model
+
     def learn(
         self: SelfHybridDDPG,
         total_timesteps: int,
@@ -417,3 +636,68 @@ class HybridDDPG(TD3):
             reset_num_timesteps=reset_num_timesteps,
             progress_bar=progress_bar,
         )
+
+
+_CLASS_MODULES = {"activation_fn": (th.nn, th.nn.Module), "optimizer_class": (th.optim, th.optim.Optimizer)}
+
+
+def _class_name(key: str, value: Any) -> Any:
+    """A policy setting as JSON: a ``torch.nn`` / ``torch.optim`` class by its dotted name."""
+    if key in _CLASS_MODULES and isinstance(value, type):
+        module, _ = _CLASS_MODULES[key]
+        if getattr(module, value.__name__, None) is value:
+            return f"{module.__name__}.{value.__name__}"
+    try:
+        json.dumps(value)
+    except TypeError:
+        raise ValueError(
+            f"policy_kwargs[{key!r}] = {value!r} cannot be written as JSON; save_weights stores plain "
+            "values and torch.nn / torch.optim classes (use save() for this model)"
+        ) from None
+    return value
+
+
+def _class_of(key: str, value: Any) -> Any:
+    """The inverse of :func:`_class_name`: only classes of ``torch.nn`` / ``torch.optim`` are looked up."""
+    if key not in _CLASS_MODULES or not isinstance(value, str):
+        return value
+    module, base = _CLASS_MODULES[key]
+    prefix = f"{module.__name__}."
+    found = getattr(module, value[len(prefix) :], None) if value.startswith(prefix) else None
+    if not (isinstance(found, type) and issubclass(found, base)):
+        raise ValueError(f"policy_kwargs[{key!r}] = {value!r} is not a class of {module.__name__}")
+    return found
+
+
+def _read_weights(path: pathlib.Path, device: th.device | str) -> tuple[dict[str, Any], dict[str, th.Tensor]]:
+    """``config.json`` and ``policy.pth`` of a folder or ``.zip``, read without unpickling."""
+    try:
+        if path.is_dir():
+            config_text, weights = (path / "config.json").read_text(), (path / "policy.pth").read_bytes()
+        else:
+            with zipfile.ZipFile(path) as archive:
+                config_text = archive.read("config.json").decode()
+                weights = archive.read("policy.pth")
+    except FileNotFoundError:
+        raise FileNotFoundError(
+            f"No model weights at {path} (a folder or .zip with config.json and policy.pth)"
+        ) from None
+    except (KeyError, zipfile.BadZipFile) as error:
+        raise ValueError(f"{path} is not a weights file of save_weights ({error})") from error
+    try:
+        config = json.loads(config_text)
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{path}: config.json is not valid JSON: {error}") from error
+    if not isinstance(config, dict) or config.get("format") != WEIGHTS_FORMAT:
+        raise ValueError(f"{path}: config.json is not a weights configuration of format {WEIGHTS_FORMAT}")
+    map_location = "cpu" if device == "auto" else device
+    try:
+        state = th.load(io.BytesIO(weights), map_location=map_location, weights_only=True)
+    except (pickle.UnpicklingError, RuntimeError, EOFError) as error:
+        raise ValueError(
+            f"{path}: policy.pth was refused: it is not a plain file of tensors (torch.load with "
+            f"weights_only=True; nothing in it was run): {error}"
+        ) from error
+    if not isinstance(state, dict) or not all(isinstance(v, th.Tensor) for v in state.values()):
+        raise ValueError(f"{path}: policy.pth must hold a state dict of tensors")
+    return config, state
