@@ -518,6 +518,8 @@ def _segment_hits_circle(
     disc = half_b * half_b - a * c
     moving = a > 0.0
     hit = moving & (disc > 0.0)
+    if not _count(hit):  # the usual case: the line passes the circle by
+        return hit, disc
     root = np.sqrt(np.where(hit, disc, 0.0))
     safe_a = np.where(moving, a, 1.0)
     t1 = (-half_b - root) / safe_a
@@ -613,8 +615,11 @@ def bounce_off_posts(
         c2x, c2y = nearest_post(ex, ey, post_x, post_y)
         hit1, t1 = _segment_hits_circle(bx, by, ex, ey, c1x, c1y, radius)
         other = (c1x != c2x) | (c1y != c2y)
-        hit2, t2 = _segment_hits_circle(bx, by, ex, ey, c2x, c2y, radius)
-        hit2 &= other & ~hit1
+        if _count(other):  # the move ends in another quadrant: test that post too
+            hit2, t2 = _segment_hits_circle(bx, by, ex, ey, c2x, c2y, radius)
+            hit2 &= other & ~hit1
+        else:
+            hit2, t2 = other, t1
         now = (hit1 | hit2) & active
         if not _count(now):
             break
