@@ -150,9 +150,14 @@ def breakdown(module: Any, n_games: int) -> dict[str, float]:
         "physics.step": _per_call_us(lambda: physics.step(state, commands, params, np.random.default_rng(1))),
         "features.low_level_features": _per_call_us(lambda: features.low_level_features(after, params)),
         "referee.judge": _per_call_us(
-            lambda: referee.judge(after, params, task.max_steps, task.untouched_cycles)
+            lambda: referee.judge(after, params, task.max_steps, task.untouched_cycles, state)
         ),
         "physics.kickable": _per_call_us(lambda: physics.kickable(after, params)),
+        "physics.resolve_collisions": _per_call_us(
+            lambda: physics.resolve_collisions(
+                after.ball_pos.copy(), after.ball_vel.copy(), after.pos.copy(), after.vel.copy(), params
+            )
+        ),
         f"reset.reset_state ({n_reset} games)": _per_call_us(
             lambda: reset_state(rng, n_reset, task.n_players, params, task.ball_x_range)
         ),
