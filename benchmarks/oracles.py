@@ -52,6 +52,14 @@ TASKS: dict[str, tuple[Callable[[int], BatchedTask], Policies]] = {
         spec.key: (spec.batched_env, spec.reference_policies(np.random.default_rng(k + 1)))
         for k, spec in enumerate(COMM_TASKS.values())
     },
+    # the authors' rules (dqn-hfo) of the same tasks
+    **{
+        f"{spec.key}_dqn_hfo": (
+            lambda n, spec=spec: spec.batched_env(n_games=n, rules="dqn-hfo"),
+            {"oracle": spec.oracle, "random": _random(2 * len(COMM_TASKS) + 1 + k)},
+        )
+        for k, spec in enumerate(COMM_TASKS.values())
+    },
     "hfo_move_to_ball": (
         lambda n: MoveToBallTask(n_games=n),
         {"oracle": move_to_ball_oracle, "random": _random(len(COMM_TASKS) + 1)},
@@ -75,6 +83,13 @@ Notes:
   episode with the referee still `IN_GAME` (the blind agent can kick the ball).
 - Guess My Number: the analytic maximum is 99 x 0.1 = 9.9 (the first step hears the initial
   message 0); the oracle sends each teammate its hidden number and reaches it.
+- `*_dqn_hfo`: the same tasks under `rules="dqn-hfo"`, as the authors' code ran them (SPEC §6
+  items 6, 7): Blind Soccer ends when either agent can kick the ball; Guess My Number rewards the
+  message sent in the same step (maximum 100 x 0.1 = 10) and ends on a goal or the ball out.
+- Simulator fidelity (SPEC §6): kickable means librcsc's test (1.03), goal posts are the
+  server's circles and deflect the ball, the referee judges the ball's path and its previous
+  position, ball-player collisions move both objects (see the README, "How faithful is the
+  simulator").
 - HFO single-agent tasks: move to ball ends `IN_GAME` when the player can kick the ball; the
   empty-goal oracle runs to the ball and kicks it at full power towards the goal centre.
 """

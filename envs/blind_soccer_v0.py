@@ -19,7 +19,8 @@ def parallel_env(render_mode: str | None = None, **kwargs: Any) -> CommParallelE
     """One game of Blind Soccer as a PettingZoo ``ParallelEnv``.
 
     :param render_mode: ``None`` or ``"rgb_array"``.
-    :param kwargs: ``seed``, ``params``, ``noise``, ``max_steps``, ``channel_size``.
+    :param kwargs: ``seed``, ``params``, ``noise``, ``max_steps``, ``channel_size``,
+        ``rules`` (``"paper"`` or ``"dqn-hfo"``).
     """
     return CommParallelEnv(BlindSoccerTask, render_mode=render_mode, **kwargs)
 

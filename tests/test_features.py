@@ -59,23 +59,25 @@ def reference(state: SoccerState, g: int, i: int, n_opponents: int = 0) -> np.nd
     f += [1.0 if c else -1.0 for c in (state.collided_ball[g, i], state.collided_player[g, i])]
     f += [1.0 if state.collided_post[g, i] else -1.0]
     bx, by = state.ball_pos[g]
-    f += [1.0 if math.hypot(bx - x, by - y) <= 1.085 else -1.0]
+    f += [1.0 if math.hypot(bx - x, by - y) <= 1.03 else -1.0]  # librcsc: 1.085 - 0.055
     for lx, ly in SPEC_LANDMARKS:
         f += landmark(lx, ly)
     for v in (x / 52.5, (52.5 - x) / 52.5, (34 + y) / 68, (34 - y) / 68):
-        f += [normalize(v, 0, 1)]
+        f += [normalize(1.0 - min(max(v, 0.0), 1.0), 0, 1)]  # HFO addDistFeature: a proximity
     f += [1.0, *landmark(bx, by), 1.0]
     bvx, bvy = state.ball_vel[g]
     bdir = math.atan2(bvy, bvx)
     f += [normalize(math.hypot(bvx, bvy), 0, 5.0), math.sin(bdir), math.cos(bdir)]
     others = [j for j in range(state.n_players) if j != i]
     others.sort(key=lambda j: math.hypot(*(state.pos[g, j] - state.pos[g, i])))
-    for j in others:
+    seen = [j for j in others if state.pos[g, j, 0] > 0]  # HFO 2016: teammate->pos().x > 0
+    for j in seen:
         f += landmark(*state.pos[g, j])
         bj = math.radians(state.body[g, j])
         vj = state.vel[g, j]
         dj = math.atan2(vj[1], vj[0])
         f += [math.sin(bj), math.cos(bj), normalize(math.hypot(*vj), 0, 0.75), math.sin(dj), math.cos(dj)]
+    f += [0.0] * (8 * (len(others) - len(seen)))  # unseen teammates: zero blocks at the end
     f += [0.0] * (8 * n_opponents)
     return np.array(f)
 
@@ -229,22 +231,27 @@ def test_player_on_a_landmark_has_direction_zero() -> None:
 @pytest.mark.parametrize(
     ("pos", "edges"),
     [
-        ((0, -34), [-1, 1, -1, 1]),
-        ((52.5, 34), [1, -1, 1, -1]),
+        ((0, -34), [1, -1, 1, -1]),
+        ((52.5, 34), [-1, 1, -1, 1]),
         ((26.25, 0), [0, 0, 0, 0]),
-        ((13.125, 17), [-0.5, 0.5, 0.5, -0.5]),
-        ((-5, 40), [-1, 1, 1, -1]),  # out of the field: clipped
+        ((13.125, 17), [0.5, -0.5, -0.5, 0.5]),
+        ((-5, 40), [1, -1, -1, 1]),  # out of the field: clipped
     ],
 )
 def test_edge_distances(pos: tuple[float, float], edges: list[float]) -> None:
+    """HFO 2016 ``addDistFeature(dist, maxDist)``: ``proximity = 1 - max(0, min(1, dist/maxDist));
+    addNormFeature(proximity, 0., 1.)``, i.e. 1 - 2 v: +1 standing on the edge (SPEC §6 item 8)."""
     f = feats(scene(pos=pos))
     np.testing.assert_allclose(f[F.EDGE_LEFT : F.EDGE_BOTTOM + 1], edges, atol=ATOL)
 
 
 @pytest.mark.parametrize(
-    ("dist", "expected"), [(0.5, 1.0), (1.0, 1.0), (1.08, 1.0), (1.2, -1.0), (5.0, -1.0)]
+    ("dist", "expected"),
+    [(0.5, 1.0), (1.0, 1.0), (1.029, 1.0), (1.05, -1.0), (1.08, -1.0), (1.2, -1.0), (5.0, -1.0)],
 )
 def test_kickable(dist: float, expected: float) -> None:
+    """HFO's feature is librcsc's ``isKickable()``: ``ball.distFromSelf() <= kickableArea() - buf``
+    with ``buf = 0.055`` for a ball seen this cycle, so 1.03, not the server's 1.085."""
     f = feats(scene(pos=(20, 0), body=45, ball=(20 - dist * 0.6, dist * 0.8)))
     assert f[F.KICKABLE] == expected
 
@@ -284,7 +291,8 @@ def test_kickable_agrees_with_the_simulator() -> None:
     s = random_state(np.random.default_rng(11), 300, 2)
     # Some balls right at the kickable distance, where float rounding decides.
     angle = np.linspace(0, 2 * np.pi, 100)
-    s.ball_pos[:100] = s.pos[:100, 0] + PARAMS.kickable_area * np.stack([np.cos(angle), np.sin(angle)], 1)
+    ring = PARAMS.client_kickable_area * np.stack([np.cos(angle), np.sin(angle)], 1)
+    s.ball_pos[:100] = s.pos[:100, 0] + ring
     kick = F.low_level_features(s, PARAMS)[..., F.KICKABLE]
     np.testing.assert_array_equal(kick == 1.0, physics.kickable(s, PARAMS))
     # A caller that has the test's result already can pass it in.
@@ -359,7 +367,9 @@ def test_two_players_see_each_other() -> None:
 
 
 def test_players_on_top_of_each_other_do_not_produce_nan() -> None:
-    s = SoccerState.zeros(2, 3)  # everything at the origin
+    s = SoccerState.zeros(2, 3)
+    s.pos[:] = 1.0  # everything at (1, 1): x > 0, so the teammates are seen
+    s.ball_pos[:] = 1.0
     out = F.low_level_features(s, PARAMS)
     assert np.isfinite(out).all()
     np.testing.assert_allclose(out[0, 0, 58:61], [0, 1, 1], atol=ATOL)
@@ -405,3 +415,33 @@ def test_other_params_change_normalisers() -> None:
     assert f[F.SELF_SPEED] == pytest.approx(0.0, abs=ATOL)
     f = F.low_level_features(s, PARAMS)[0, 0]
     assert f[F.SELF_SPEED] == pytest.approx(normalize(0.3, 0, 0.46), abs=ATOL)
+
+
+def test_teammate_at_negative_x_gives_eight_zeros() -> None:
+    """HFO 2016 ``ExtractFeatures``: ``if (teammate->pos().x > 0 && ...) addPlayerFeatures(...)``,
+    then ``addFeature(0)`` for every missing teammate (SPEC §6 item 1)."""
+    s = scene(n_players=2, pos=(10.0, 5.0))
+    s.pos[0, 1] = (-1.0, 3.0)
+    s.body[0, 1] = 30.0
+    s.vel[0, 1] = (0.2, 0.1)
+    f = F.low_level_features(s, PARAMS)
+    np.testing.assert_array_equal(f[0, 0, F.TEAMMATE_START : F.TEAMMATE_START + 8], np.zeros(8))
+    assert np.abs(f[0, 1, F.TEAMMATE_START : F.TEAMMATE_START + 8]).sum() > 0  # x = 10 is seen
+    s.pos[0, 1] = (0.0, 3.0)  # x <= 0: still skipped
+    f = F.low_level_features(s, PARAMS)
+    np.testing.assert_array_equal(f[0, 0, F.TEAMMATE_START : F.TEAMMATE_START + 8], np.zeros(8))
+    s.pos[0, 1] = (0.5, 3.0)
+    f = F.low_level_features(s, PARAMS)
+    np.testing.assert_allclose(f[0, 0], reference(s, 0, 0), atol=ATOL)
+    assert f[0, 0, F.player_index(0, "proximity", 1)] != 0.0
+
+
+def test_hidden_teammates_are_skipped_among_three() -> None:
+    """With two teammates, the visible one fills the first block even when the hidden one is nearer."""
+    s = scene(n_players=3, pos=(2.0, 0.0))
+    s.pos[0, 1] = (-0.5, 0.0)  # nearest, but at x <= 0
+    s.pos[0, 2] = (20.0, 0.0)
+    f = F.low_level_features(s, PARAMS)[0, 0]
+    np.testing.assert_allclose(f, reference(s, 0, 0), atol=ATOL)
+    np.testing.assert_array_equal(f[F.TEAMMATE_START + 8 : F.TEAMMATE_START + 16], np.zeros(8))
+    assert f[F.TEAMMATE_START + 2] == pytest.approx(1 - 2 * 18.0 / MAX_DIST, abs=ATOL)

@@ -181,7 +181,9 @@ def test_full_power_kick_leaves_at_2_7_and_rolls_45_m():
     s = run(game(ball=(0.385, 0.0)), command(KICK, 100.0, 0.0))
     assert s.ball_pos[0, 0] - 0.385 == pytest.approx(2.7, abs=1e-12)
     assert s.ball_vel[0, 0] == pytest.approx(2.7 * 0.94, abs=1e-12)
-    assert s.ball_touched[0] == 1 and s.cycle[0] == 1
+    # HFO's referee counts a touch by proximity at the end of a cycle, not by kicks:
+    # "if ( ppos.distance2( ball.pos() ) < pow( kickableArea(), 2 ) ) M_untouched_time = 0"
+    assert s.ball_touched[0] == -1 and s.cycle[0] == 1
     s = idle(s, 300)
     assert abs(s.ball_pos[0, 0] - 0.385 - 45.0) < 0.5
     assert s.ball_pos[0, 1] == 0.0
@@ -215,13 +217,33 @@ def test_no_kick_outside_the_kickable_area():
     nxt = run(game(ball=(1.09, 0.0)), command(KICK, 100.0, 0.0))
     np.testing.assert_array_equal(nxt.ball_pos[0], [1.09, 0.0])
     assert nxt.ball_touched[0] == -1
-    assert kick_accel((1.084, 0.0))[0] > 2.0
+    assert kick_accel((1.029, 0.0))[0] > 2.0
 
 
-def test_kickable_boundary_is_1_085():
+def test_kick_at_1_05_m_is_refused():
+    """librcsc ``PlayerAgent::doKick`` sends nothing unless ``world().self().isKickable()``, and
+    ``isKickable`` is ``ball.distFromSelf() <= kickableArea() - 0.055`` (ball seen this cycle):
+    1.03. The server alone (``Player::kick``, 1.085) would have accepted a kick at 1.05."""
+    np.testing.assert_array_equal(kick_accel((1.05, 0.0)), [0.0, 0.0])
+    server_only = EXACT.replace(kickable_buffer=0.0)
+    rate = 1 - 0.25 * (1.05 - 0.385) / 0.7
+    nxt = run(game(ball=(1.05, 0.0)), command(KICK, 100.0, 0.0), server_only)
+    np.testing.assert_allclose(nxt.ball_pos[0], [1.05 + 2.7 * rate, 0.0], atol=1e-12)
+
+
+def test_negative_kick_power_becomes_zero():
+    """librcsc ``Effector::setKick``: ``if ( command_power < 0.0 ) command_power = 0.0``."""
+    np.testing.assert_array_equal(kick_accel((0.385, 0.0), power=-100.0), [0.0, 0.0])
+
+
+def test_kickable_boundaries_client_1_03_server_1_085():
     assert EXACT.kickable_area == pytest.approx(1.085)
-    s = game(ball=(0.0, 0.0), players=((1.0849, 0.0), (0.0, -1.0851)))
+    assert EXACT.client_kickable_area == pytest.approx(1.03)
+    s = game(ball=(0.0, 0.0), players=((1.0299, 0.0), (0.0, -1.0301)))
     np.testing.assert_array_equal(physics.kickable(s, EXACT), [[True, False]])
+    np.testing.assert_array_equal(physics.server_kickable(s, EXACT), [[True, True]])
+    s = game(ball=(0.0, 0.0), players=((1.0849, 0.0), (0.0, -1.0851)))
+    np.testing.assert_array_equal(physics.server_kickable(s, EXACT), [[True, False]])
 
 
 def test_kick_accel_is_capped_at_ball_accel_max():
@@ -276,12 +298,16 @@ def test_players_stay_within_the_pitch_margin():
 # ------------------------------------------------------------------------------------------------
 # collisions
 # ------------------------------------------------------------------------------------------------
-def test_ball_player_collision_pushes_the_ball_out_and_reflects():
+def test_ball_player_collision_moves_both_apart_and_reflects():
+    """``Stadium::calcCollisionPos`` (play on): ``mid = (a + b) / 2; mid2a.normalize((a->size() +
+    b->size()) / 2.0 + EPS); apos = mid + mid2a; bpos = mid + mid2b``, then
+    ``updateCollisionVel``: ``M_vel *= -0.1`` for both (SPEC §6 item 5)."""
     s = game(ball=(1.0, 0.0), ball_vel=(-0.7, 0.0), vel=((0.05, 0.0), (0.0, 0.0)))
     nxt = run(s, Commands.noop(1, 2))
-    player_x = 0.05
-    assert nxt.pos[0, 0, 0] == pytest.approx(player_x)
-    assert nxt.ball_pos[0, 0] - player_x == pytest.approx(0.385)  # touching distance
+    # after the move: player at 0.05, ball at 0.3; midpoint 0.175, each 0.1925 from it
+    assert nxt.pos[0, 0, 0] == pytest.approx(0.175 - 0.1925, abs=1e-9)
+    assert nxt.ball_pos[0, 0] == pytest.approx(0.175 + 0.1925, abs=1e-9)
+    assert nxt.ball_pos[0, 0] - nxt.pos[0, 0, 0] == pytest.approx(0.385)  # touching distance
     assert nxt.ball_vel[0, 0] == pytest.approx(-0.7 * 0.94 * -0.1)
     assert nxt.vel[0, 0, 0] == pytest.approx(0.05 * 0.4 * -0.1)
     np.testing.assert_array_equal(nxt.collided_ball, [[True, False]])
@@ -290,15 +316,51 @@ def test_ball_player_collision_pushes_the_ball_out_and_reflects():
     assert not after.collided_ball.any()  # flags describe the last cycle only
 
 
-def test_coincident_ball_goes_out_along_x():
+def test_coincident_ball_and_player_separate_along_x():
+    """The server separates coincident objects at a random angle; here along x (player +x)."""
     nxt = run(game(ball=(3.0, 4.0), players=((3.0, 4.0), FAR)), Commands.noop(1, 2))
-    np.testing.assert_allclose(nxt.ball_pos[0], [3.385, 4.0])
+    np.testing.assert_allclose(nxt.ball_pos[0], [3.0 - 0.1925, 4.0], atol=1e-9)
+    np.testing.assert_allclose(nxt.pos[0, 0], [3.0 + 0.1925, 4.0], atol=1e-9)
+
+
+def test_dash_into_a_resting_ball_moves_both():
+    """Player at 0 dashes at full power (0.6 m), the ball rests at 0.8: after the move they are
+    0.2 apart, so each goes 0.1925 (+ EPS) from the midpoint 0.7; ball velocity 0 * -0.1 = 0,
+    player 0.6 * 0.4 * -0.1."""
+    nxt = run(game(ball=(0.8, 0.0)), command(DASH, 100.0, 0.0))
+    assert nxt.pos[0, 0, 0] == pytest.approx(0.7 - 0.1925, abs=1e-9)
+    assert nxt.ball_pos[0, 0] == pytest.approx(0.7 + 0.1925, abs=1e-9)
+    assert nxt.vel[0, 0, 0] == pytest.approx(0.6 * 0.4 * -0.1)
+    np.testing.assert_array_equal(nxt.ball_vel[0], [0.0, 0.0])
+    np.testing.assert_array_equal(nxt.collided_ball, [[True, False]])
+
+
+def test_collision_passes_repeat_until_nothing_overlaps():
+    """``Stadium::collisions``: ``do { ... } while ( col && max_loop > 0 )`` with max_loop = 10.
+    The ball squeezed between two overlapping players: each pass averages the targets of an
+    object's pairs, so the overlaps shrink pass after pass, and after the tenth the server stops
+    with a small overlap left. Every collided object's velocity is reflected once."""
+    s = game(ball=(10.3, 0.0), players=((10.0, 0.0), (10.45, 0.0)))
+    s.ball_vel[0] = (0.01, 0.0)
+    nxt = run(s, Commands.noop(1, 2))
+    gap = np.abs(nxt.pos[0, :, 0] - nxt.ball_pos[0, 0])
+    assert 0.38 < gap.min() < 0.385  # from 0.15: nine more passes did most, not all, of the work
+    one_pass = physics.COLLISION_PASSES
+    try:
+        physics.COLLISION_PASSES = 1
+        after_one = run(s, Commands.noop(1, 2))
+    finally:
+        physics.COLLISION_PASSES = one_pass
+    assert np.abs(after_one.pos[0, :, 0] - after_one.ball_pos[0, 0]).min() < 0.3
+    assert nxt.ball_vel[0, 0] == pytest.approx(0.01 * 0.94 * -0.1)
+    np.testing.assert_array_equal(nxt.collided_ball, [[True, True]])
+    np.testing.assert_array_equal(nxt.collided_player, [[True, True]])
 
 
 def test_player_player_collision_splits_the_correction():
     s = game(players=((0.0, 0.0), (0.4, 0.0)), vel=((0.1, 0.0), (0.0, 0.0)))
     nxt = run(s, Commands.noop(1, 2))
-    np.testing.assert_allclose(nxt.pos[0, :, 0], [-0.05, 0.55], atol=1e-12)
+    np.testing.assert_allclose(nxt.pos[0, :, 0], [-0.05, 0.55], atol=1e-9)  # + EPS each
     np.testing.assert_allclose(nxt.pos[0, :, 1], [0.0, 0.0], atol=1e-12)
     assert nxt.vel[0, 0, 0] == pytest.approx(0.1 * 0.4 * -0.1)
     np.testing.assert_array_equal(nxt.collided_player, [[True, True]])
@@ -306,16 +368,56 @@ def test_player_player_collision_splits_the_correction():
 
 def test_coincident_players_separate_along_x():
     nxt = run(game(players=((5.0, 5.0), (5.0, 5.0))), Commands.noop(1, 2))
-    np.testing.assert_allclose(nxt.pos[0], [[4.7, 5.0], [5.3, 5.0]], atol=1e-12)
+    np.testing.assert_allclose(nxt.pos[0], [[4.7, 5.0], [5.3, 5.0]], atol=1e-9)
 
 
-def test_player_post_collision():
+POST = (52.5 - 0.06, 7.01 + 0.06)
+"""``nearestPost``: ``PVector( PITCH_LENGTH*0.5 - goalPostRadius(), goalWidth()*0.5 +
+goalPostRadius() )``, a circle of radius ``goalPostRadius() + size`` for an object of ``size``."""
+
+
+def test_player_inside_a_post_is_put_on_its_circle():
+    """``MPObject::_inc``: ``while ( ( pos() - post.center() ).r() < post.radius() ) { diff.normalize(
+    post.radius() ); M_pos = post.center() + diff; ... }`` with radius 0.06 + 0.3."""
     s = game(players=((52.3, 7.01), (52.5, -7.2)))
     nxt = run(s, Commands.noop(1, 2))
     touch = 0.3 + 0.06
-    np.testing.assert_allclose(nxt.pos[0, 0], [52.5 - touch, 7.01], atol=1e-12)
-    np.testing.assert_allclose(nxt.pos[0, 1], [52.5, -7.01 - touch], atol=1e-12)
+    for i, (x, y) in enumerate(((52.3, 7.01), (52.5, -7.2))):
+        cx, cy = POST[0], np.sign(y) * POST[1]
+        d = np.hypot(x - cx, y - cy)
+        want = [cx + (x - cx) * touch / d, cy + (y - cy) * touch / d]
+        np.testing.assert_allclose(nxt.pos[0, i], want, atol=1e-12)
     np.testing.assert_array_equal(nxt.collided_post, [[True, True]])
+
+
+def test_ball_rolling_into_a_post_bounces():
+    """Ball at (50, 7.07) rolling +x at 2.0 (then 1.88): the second move (52 -> 53.88) meets the
+    circle x = 52.44 - (0.06 + 0.085) = 52.295 after 0.295 m; ``rem.x = -rem.x`` sends the
+    remaining 1.585 m back, and the speed is kept (``M_vel = fromPolar( M_vel.r(), rem.th() )``)."""
+    s = game(ball=(50.0, POST[1]), ball_vel=(2.0, 0.0))
+    s = run(s, Commands.noop(1, 2))
+    np.testing.assert_allclose(s.ball_pos[0], [52.0, POST[1]], atol=1e-12)
+    s = run(s, Commands.noop(1, 2))
+    assert s.ball_pos[0, 0] == pytest.approx(52.295 - (1.88 - 0.295), abs=1e-9)
+    assert s.ball_pos[0, 1] == pytest.approx(POST[1], abs=1e-9)
+    assert s.ball_vel[0, 0] == pytest.approx(-1.88 * 0.94, abs=1e-9)
+
+
+def test_ball_glancing_off_a_post_is_mirrored_about_the_centre_line():
+    """A move that enters the post circle off-centre: the rest of the move is mirrored about the
+    line from the entry point to the post centre; the object ends outside the circle."""
+    start = np.array([51.0, POST[1] - 0.1])
+    s = game(ball=tuple(start), ball_vel=(2.0, 0.0))
+    nxt = run(s, Commands.noop(1, 2))
+    r = 0.06 + 0.085
+    ex = POST[0] - np.sqrt(r * r - 0.1 * 0.1)  # entry point on the circle
+    entry = np.array([ex, start[1]])
+    u = (np.array(POST) - entry) / r
+    rest = np.array([start[0] + 2.0 - ex, 0.0])
+    rest -= 2 * rest.dot(u) * u
+    np.testing.assert_allclose(nxt.ball_pos[0], entry + rest, atol=1e-9)
+    np.testing.assert_allclose(nxt.ball_vel[0], rest / np.linalg.norm(rest) * 2.0 * 0.94, atol=1e-9)
+    assert np.hypot(*(nxt.ball_pos[0] - POST)) > r
 
 
 # ------------------------------------------------------------------------------------------------
@@ -479,6 +581,9 @@ def test_batched_step_equals_games_one_at_a_time():
 # ------------------------------------------------------------------------------------------------
 # an independent scalar transcription of SPEC §3 (noise off), one game and one object at a time
 # ------------------------------------------------------------------------------------------------
+EPS = 1e-10  # rcssserver utility.h
+
+
 def reference_step(s: SoccerState, c: Commands, p: ServerParams) -> SoccerState:
     """Plain-Python rcssserver cycle for noise-free params, written from the SPEC formulas."""
     import math
@@ -487,7 +592,6 @@ def reference_step(s: SoccerState, c: Commands, p: ServerParams) -> SoccerState:
     n, n_players = s.body.shape
     for g in range(n):
         bax = bay = 0.0
-        kicked = False
         pacc = [(0.0, 0.0)] * n_players
         for i in range(n_players):
             kind, power, direction = int(c.kind[g, i]), float(c.power[g, i]), float(c.direction[g, i])
@@ -518,8 +622,8 @@ def reference_step(s: SoccerState, c: Commands, p: ServerParams) -> SoccerState:
             elif kind == KICK:
                 rx, ry = s.ball_pos[g, 0] - px, s.ball_pos[g, 1] - py
                 dist = math.hypot(rx, ry)
-                if dist <= p.kickable_area:
-                    power = min(max(power, p.minpower), p.maxpower)
+                if dist <= p.kickable_area - 0.055:  # librcsc's kickable test
+                    power = min(max(power, 0.0), p.maxpower)  # librcsc: negative power -> 0
                     dir_diff = abs((math.degrees(math.atan2(ry, rx)) - body + 180) % 360 - 180)
                     gap = dist - p.player_size - p.ball_size
                     eff = (
@@ -530,9 +634,30 @@ def reference_step(s: SoccerState, c: Commands, p: ServerParams) -> SoccerState:
                     ang = math.radians(body + min(max(direction, p.minmoment), p.maxmoment))
                     bax += eff * math.cos(ang)
                     bay += eff * math.sin(ang)
-                    kicked = True
 
-        def move(pos, vel, acc, amax, smax, decay):
+        def nearest(q):  # rcssserver nearestPost
+            post_x, post_y = p.half_length - p.goal_post_radius, p.goal_width / 2 + p.goal_post_radius
+            return (post_x if q[0] > 0 else -post_x, post_y if q[1] > 0 else -post_y)
+
+        def entry(b, e, c, r):  # rcssserver intersect: fraction of the move b -> e entering (c, r)
+            sx, sy, ox, oy = e[0] - b[0], e[1] - b[1], b[0] - c[0], b[1] - c[1]
+            a = sx * sx + sy * sy
+            if a == 0.0:
+                return None
+            hb = ox * sx + oy * sy
+            disc = hb * hb - a * (ox * ox + oy * oy - r * r)
+            if disc <= 0.0:
+                return None
+            t1, t2 = (-hb - math.sqrt(disc)) / a, (-hb + math.sqrt(disc)) / a
+            in1, in2 = 0.0 <= t1 <= 1.0, 0.0 <= t2 <= 1.0
+            if not (in1 or in2):
+                return None
+            t = t1 if in1 else t2
+            if t == 0.0 and not (in1 and in2):
+                return None
+            return t
+
+        def move(pos, vel, acc, amax, smax, decay, size):
             ax, ay = acc
             a = math.hypot(ax, ay)
             if a > amax:
@@ -541,19 +666,40 @@ def reference_step(s: SoccerState, c: Commands, p: ServerParams) -> SoccerState:
             v = math.hypot(vx, vy)
             if v > smax:
                 vx, vy = vx * smax / v, vy * smax / v
-            return [pos[0] + vx, pos[1] + vy], [vx * decay, vy * decay]
-
-        lim_x, lim_y = p.half_length + p.pitch_margin, p.half_width + p.pitch_margin
-        pos, vel = [], []
-        for i in range(n_players):
-            q, v = move(
-                s.pos[g, i], s.vel[g, i], pacc[i], p.player_accel_max, p.player_speed_max, p.player_decay
-            )
-            pos.append([min(max(q[0], -lim_x), lim_x), min(max(q[1], -lim_y), lim_y)])
-            vel.append(v)
-        ball, bvel = move(
-            s.ball_pos[g], s.ball_vel[g], (bax, bay), p.ball_accel_max, p.ball_speed_max, p.ball_decay
-        )
+            r = p.goal_post_radius + size
+            bx, by = float(pos[0]), float(pos[1])
+            hit = False
+            c = nearest((bx, by))
+            if math.hypot(bx - c[0], by - c[1]) < r:  # inside a post: out, velocity mirrored
+                bx, by = out_to(c, (bx, by), r)
+                while math.hypot(bx - c[0], by - c[1]) < r:
+                    bx, by = c[0] + (bx - c[0]) * 1.01, c[1] + (by - c[1]) * 1.01
+                nx, ny = c[0] - bx, c[1] - by
+                k = 2 * (vx * nx + vy * ny) / (nx * nx + ny * ny)
+                vx, vy = vx - k * nx, vy - k * ny
+                hit = True
+            ex, ey = bx + vx, by + vy
+            for _ in range(4):
+                c1, c2 = nearest((bx, by)), nearest((ex, ey))
+                t = entry((bx, by), (ex, ey), c1, r)
+                c = c1
+                if t is None and c2 != c1:
+                    t, c = entry((bx, by), (ex, ey), c2, r), c2
+                if t is None:
+                    break
+                ix, iy = bx + t * (ex - bx), by + t * (ey - by)
+                ux, uy = c[0] - ix, c[1] - iy
+                un = math.hypot(ux, uy)
+                ux, uy = ux / un, uy / un
+                rx, ry = ex - ix, ey - iy
+                k = 2 * (rx * ux + ry * uy)
+                rx, ry = rx - k * ux, ry - k * uy
+                bx, by = ix - EPS * ux, iy - EPS * uy
+                ex, ey = bx + rx, by + ry
+                speed, rest = math.hypot(vx, vy), math.hypot(rx, ry)
+                vx, vy = speed * rx / rest, speed * ry / rest
+                hit = True
+            return [ex, ey], [vx * decay, vy * decay], hit
 
         def out_to(anchor, point, touch):
             dx, dy = point[0] - anchor[0], point[1] - anchor[1]
@@ -562,34 +708,75 @@ def reference_step(s: SoccerState, c: Commands, p: ServerParams) -> SoccerState:
                 return [anchor[0] + touch, anchor[1]]
             return [anchor[0] + dx * touch / d, anchor[1] + dy * touch / d]
 
-        cb, cp, cpost = [False] * n_players, [False] * n_players, [False] * n_players
+        lim_x, lim_y = p.half_length + p.pitch_margin, p.half_width + p.pitch_margin
+        pos, vel, cpost = [], [], []
         for i in range(n_players):
-            if math.hypot(ball[0] - pos[i][0], ball[1] - pos[i][1]) < p.ball_size + p.player_size:
-                ball = out_to(pos[i], ball, p.ball_size + p.player_size)
-                cb[i] = True
+            q, v, h = move(
+                s.pos[g, i],
+                s.vel[g, i],
+                pacc[i],
+                p.player_accel_max,
+                p.player_speed_max,
+                p.player_decay,
+                p.player_size,
+            )
+            pos.append([min(max(q[0], -lim_x), lim_x), min(max(q[1], -lim_y), lim_y)])
+            vel.append(v)
+            cpost.append(h)
+        ball, bvel, _ = move(
+            s.ball_pos[g],
+            s.ball_vel[g],
+            (bax, bay),
+            p.ball_accel_max,
+            p.ball_speed_max,
+            p.ball_decay,
+            p.ball_size,
+        )
+
+        def separate(a, b, size_sum):  # calcCollisionPos: both to (size_a + size_b) / 2 + EPS from the mid
+            mid = [(a[0] + b[0]) / 2, (a[1] + b[1]) / 2]
+            dx, dy = a[0] - mid[0], a[1] - mid[1]
+            d = math.hypot(dx, dy)
+            if d < EPS:
+                dx, dy, d = -1.0, 0.0, 1.0
+            h = size_sum / 2 + EPS
+            return [mid[0] + dx * h / d, mid[1] + dy * h / d], [mid[0] - dx * h / d, mid[1] - dy * h / d]
+
+        cb, cp = [False] * n_players, [False] * n_players
+        for _ in range(10):  # Stadium::collisions: up to ten passes while something overlaps
+            targets = {k: [] for k in range(-1, n_players)}  # -1: the ball
+            for i in range(n_players):
+                if math.hypot(ball[0] - pos[i][0], ball[1] - pos[i][1]) < p.ball_size + p.player_size:
+                    a, b = separate(ball, pos[i], p.ball_size + p.player_size)
+                    targets[-1].append(a)
+                    targets[i].append(b)
+                    cb[i] = True
+            for i in range(n_players):
+                for j in range(i + 1, n_players):
+                    if math.hypot(pos[j][0] - pos[i][0], pos[j][1] - pos[i][1]) < 2 * p.player_size:
+                        a, b = separate(pos[i], pos[j], 2 * p.player_size)
+                        targets[i].append(a)
+                        targets[j].append(b)
+                        cp[i] = cp[j] = True
+            if not any(targets.values()):
+                break
+            for k, ts in targets.items():
+                if ts:
+                    mean = [sum(t[0] for t in ts) / len(ts), sum(t[1] for t in ts) / len(ts)]
+                    if k < 0:
+                        ball = mean
+                    else:
+                        pos[k] = mean
         for i in range(n_players):
-            for j in range(i + 1, n_players):
-                if math.hypot(pos[j][0] - pos[i][0], pos[j][1] - pos[i][1]) < 2 * p.player_size:
-                    mid = [(pos[i][0] + pos[j][0]) / 2, (pos[i][1] + pos[j][1]) / 2]
-                    pos[j] = out_to(mid, pos[j], p.player_size)
-                    pos[i] = [2 * mid[0] - pos[j][0], 2 * mid[1] - pos[j][1]]
-                    cp[i] = cp[j] = True
-        for i in range(n_players):
-            for post in ((p.half_length, -p.goal_width / 2), (p.half_length, p.goal_width / 2)):
-                touch = p.player_size + p.goal_post_radius
-                if math.hypot(pos[i][0] - post[0], pos[i][1] - post[1]) < touch:
-                    pos[i] = out_to(post, pos[i], touch)
-                    cpost[i] = True
-        for i in range(n_players):
-            if cb[i] or cp[i] or cpost[i]:
+            if cb[i] or cp[i]:
                 vel[i] = [-0.1 * vel[i][0], -0.1 * vel[i][1]]
         if any(cb):
             bvel = [-0.1 * bvel[0], -0.1 * bvel[1]]
         out.pos[g], out.vel[g], out.ball_pos[g], out.ball_vel[g] = pos, vel, ball, bvel
         out.collided_ball[g], out.collided_player[g], out.collided_post[g] = cb, cp, cpost
         out.cycle[g] = s.cycle[g] + 1
-        if kicked:
-            out.ball_touched[g] = out.cycle[g]
+        if any(math.hypot(ball[0] - q[0], ball[1] - q[1]) < p.kickable_area for q in pos):
+            out.ball_touched[g] = out.cycle[g]  # HFORef: a player within kickable_area touches it
         for i in range(n_players):  # stamina model, on the stamina after the dash
             st, ef, rc = out.stamina[g, i], out.effort[g, i], out.recovery[g, i]
             if st <= 0.3 * 8000:
@@ -608,7 +795,10 @@ def test_step_matches_a_scalar_transcription_of_the_spec(seed):
     s.pos[4:8, 1] = s.pos[4:8, 0] + 0.1  # overlapping players
     s.ball_pos[8:12] = s.pos[8:12, 0] + 0.2  # ball inside a player
     s.ball_pos[12:16] = s.pos[12:16].mean(axis=1)  # ball between both players
+    s.ball_pos[16:24] = ((50.5, 7.0), (50.5, -7.1), (51.0, 6.9), (51.0, -7.2)) * 2  # at the posts
+    s.ball_vel[16:24] = (2.5, 0.05)
     seen = np.zeros(3, dtype=bool)
+    bounced = np.zeros(8, dtype=bool)
     for _ in range(3):
         got = run(s, c)
         want = reference_step(s, c, EXACT)
@@ -617,8 +807,10 @@ def test_step_matches_a_scalar_transcription_of_the_spec(seed):
                 getattr(got, f.name), getattr(want, f.name), rtol=0, atol=1e-9, err_msg=f.name
             )
         seen |= [got.collided_ball.any(), got.collided_player.any(), got.collided_post.any()]
+        bounced |= (got.ball_vel[16:24, 0] < 0) & (s.ball_vel[16:24, 0] > 0)
         s = got
     assert seen.all()
+    assert bounced.sum() >= 4  # balls came off the posts
 
 
 def test_three_players_match_the_scalar_transcription():

@@ -16,10 +16,11 @@ Encoding rules (as in HFO):
 - ``normalize(v, lo, hi) = 2 (v - lo) / (hi - lo) - 1``, clipped to [-1, 1];
 - the proximity of an object at distance d is ``1 - 2 clip(d / 62.55, 0, 1)``.
 
-Two readings of the table, where HFO's code and SPEC §3 could differ, follow SPEC: the edge
-features 46-49 are the distances mapped to [-1, 1] (``2 v - 1``: -1 on the edge), whereas HFO's
-``addDistFeature`` encodes them as proximities (``1 - 2 v``, the negation); and every other
-player is a teammate, whereas later HFO versions skip players with x <= 0.
+Two points where SPEC §3's table reads differently follow HFO's 2016 code (SPEC §6 items 1, 8):
+the edge features 46-49 are HFO's ``addDistFeature``, a proximity ``1 - 2 clip(v, 0, 1)`` of the
+normalised distance v (+1 on the edge, -1 across the field), not ``2 v - 1``; and a teammate
+whose x <= 0 is skipped (``teammate->pos().x > 0`` in ``ExtractFeatures``): its 8 features are
+0, as for a missing player, and the visible teammates fill the blocks nearest first.
 
 Speed: everything is computed for all ``N × P`` players at once, in float32 (which numpy
 vectorises best) and feature-major, (F, N·P), so that every operation runs over long contiguous
@@ -247,6 +248,8 @@ def landmarks(params: ServerParams = DEFAULT_PARAMS) -> np.ndarray:
 
 _F32 = np.float32
 _DEG2RAD = math.pi / 180.0
+_count = np.count_nonzero
+
 _TINY = _F32(1e-30)
 """Added to lengths before dividing, so that a zero vector gets direction 0 without a branch;
 it is below half an ulp of any length that matters, so other results are unchanged."""
@@ -321,12 +324,15 @@ def _workspace(n: int, p: int, n_opponents: int, params: ServerParams) -> _Works
     return ws
 
 
-def _teammate_rows(pos: np.ndarray, n: int, p: int) -> np.ndarray:
-    """Row (game * P + q) of each player's teammates, nearest first, ties by index: (T, m)."""
+def _teammate_rows(pos: np.ndarray, visible: np.ndarray, n: int, p: int) -> np.ndarray:
+    """Row (game * P + q) of each player's teammates, visible ones (x > 0) nearest first, then
+    the hidden ones, ties by index: (T, m)."""
     xy = pos.reshape(2, n, p)
     gap = xy[:, :, :, None] - xy[:, :, None, :]  # (2, N, P, P)
     d2 = gap[0] * gap[0]
     d2 += gap[1] * gap[1]
+    d2 = d2.astype(np.float64)
+    d2 += np.where(visible.reshape(n, 1, p), 0.0, 1e300)  # hidden teammates after the visible
     diag = np.arange(p)
     d2[:, diag, diag] = np.inf
     order = np.argsort(d2, axis=2, kind="stable")[:, :, : p - 1]  # (N, P, T)
@@ -355,9 +361,10 @@ def low_level_features(
 ) -> np.ndarray:
     """HFO low-level features (2016 layout, SPEC §3) of every player of every game.
 
-    Teammates of a player are the other players of its game, sorted by increasing distance
-    (ties by player index). No opponents are simulated, so opponent blocks, if requested, are
-    0 (HFO's value for a missing player). A zero vector (a target at the player's position, a
+    Teammates of a player are the other players of its game at x > 0, sorted by increasing
+    distance (ties by player index); a teammate at x <= 0 is not seen (HFO 2016): its block is
+    0, HFO's value for a missing player. No opponents are simulated, so opponent blocks, if
+    requested, are 0 too. A zero vector (a target at the player's position, a
     player or ball at rest) has direction 0, as ``atan2(0, 0)`` in HFO.
 
     Computed in float32; the result does not depend on the batch size. Thread-safe (work arrays
@@ -416,19 +423,21 @@ def low_level_features(
     np.maximum(stamina, -1.0, out=stamina)
     ft[BALL_VEL_ANGLE_SIN : BALL_VEL_ANGLE_COS + 1] = glob[5:7]
 
-    # --- edges: x / 52.5 and (34 + y) / 68 mapped to [-1, 1]; opposite edges are negatives ---
-    near = ft[EDGE_LEFT : EDGE_BOTTOM + 1 : 2]  # left, top
-    np.multiply(pos, ws.edge_scale, out=near)
-    near[0] -= 1.0
-    np.minimum(near, 1.0, out=near)
-    np.maximum(near, -1.0, out=near)
-    np.negative(near, out=ft[EDGE_RIGHT : EDGE_BOTTOM + 1 : 2])
+    # --- edges: HFO's 1 - 2 v of the distances x / 52.5, (52.5 - x) / 52.5, (34 + y) / 68,
+    # (34 - y) / 68. 1 - 2 v of a far edge is 2 v - 1 of the near one; opposite edges are negatives
+    far = ft[EDGE_RIGHT : EDGE_BOTTOM + 1 : 2]  # right, bottom
+    np.multiply(pos, ws.edge_scale, out=far)
+    far[0] -= 1.0
+    np.minimum(far, 1.0, out=far)
+    np.maximum(far, -1.0, out=far)
+    np.negative(far, out=ft[EDGE_LEFT : EDGE_BOTTOM + 1 : 2])
 
     # --- landmarks, ball and teammates (nearest first) in the body frame, one row each ---
     targets = ws.targets
     ws.ball_pos[...] = state.ball_pos.T[:, :, None]
     if t:
-        mate_rows = ws.mate_rows if ws.mate_rows is not None else _teammate_rows(pos, n, p)
+        x = state.pos[..., 0].reshape(m)
+        mate_rows = ws.mate_rows if ws.mate_rows is not None else _teammate_rows(pos, x > 0.0, n, p)
         pos.take(mate_rows, axis=1, out=targets[:, _BALL_ROW + 1 :], mode="clip")
     rel = np.subtract(targets, pos[:, None], out=ws.rel)
     dx, dy = rel
@@ -472,9 +481,12 @@ def low_level_features(
         np.minimum(player_speed, 1.0, out=player_speed)
         for j in range(t):
             start = TEAMMATE_START + FEATURES_PER_PLAYER * j
-            ft[start : start + 3] = ws.polar[:, _BALL_ROW + 1 + j]
-            seen = ft[start + 3 : start + FEATURES_PER_PLAYER]
-            glob[:5].take(mate_rows[j], axis=1, out=seen, mode="clip")
+            block = ft[start : start + FEATURES_PER_PLAYER]
+            block[:3] = ws.polar[:, _BALL_ROW + 1 + j]
+            glob[:5].take(mate_rows[j], axis=1, out=block[3:], mode="clip")
+            hidden = x.take(mate_rows[j]) <= 0.0  # HFO 2016 skips teammates at x <= 0
+            if _count(hidden):
+                block *= ~hidden
 
     out = np.empty((n, p, ft.shape[0]), dtype=_F32)
     _rows_to_columns(ft, out.reshape(m, ft.shape[0]))

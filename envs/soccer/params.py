@@ -41,6 +41,10 @@ class ServerParams:
     dash_power_rate: float = 0.006
     kickable_margin: float = 0.7
     kick_rand: float = 0.1
+    kickable_buffer: float = 0.055
+    """librcsc's margin on the kickable test (``SelfObject::updateBallInfo``, ball seen this
+    cycle): an HFO agent's kickable feature is on, and librcsc sends a kick at all, only when the
+    ball is within ``kickable_area - 0.055 = 1.03``. 0 restores the server's bare test (1.085)."""
     maxpower: float = 100.0
     minpower: float = -100.0
     maxmoment: float = 180.0
@@ -95,6 +99,21 @@ class ServerParams:
     def kickable_area(self) -> float:
         """Largest centre distance at which a player can kick: 0.3 + 0.7 + 0.085 = 1.085."""
         return self.player_size + self.kickable_margin + self.ball_size
+
+    @property
+    def client_kickable_area(self) -> float:
+        """Largest distance at which an HFO agent can kick (librcsc): 1.085 - 0.055 = 1.03."""
+        return self.kickable_area - self.kickable_buffer
+
+    @property
+    def goal_post_x(self) -> float:
+        """x of the goal posts' centres as the server places them: 52.5 - 0.06 = 52.44."""
+        return self.half_length - self.goal_post_radius
+
+    @property
+    def goal_post_y(self) -> float:
+        """|y| of the goal posts' centres as the server places them: 7.01 + 0.06 = 7.07."""
+        return 0.5 * self.goal_width + self.goal_post_radius
 
     @property
     def half_length(self) -> float:

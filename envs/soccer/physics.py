@@ -10,21 +10,26 @@ and the server sources:
   (librcsc ``PlayerAgent::doTurn``) pre-scales the requested angle: :func:`hfo_turn_moment`;
 * ``Player::kick`` and ``Player::ballKickable``: :func:`kickable`, :func:`kick_effective_power`,
   :func:`kick_noise`;
-* ``MPObject::_inc`` and ``MPObject::noise`` (``src/object.cpp``): :func:`move_objects`;
-* ``Stadium::collisions`` (``src/stadium.cpp``) and the goal posts: :func:`resolve_collisions`;
+* ``MPObject::_inc`` and ``MPObject::noise`` (``src/object.cpp``): :func:`move_objects`, with
+  the goal posts of ``_inc`` (``nearestPost``, ``intersect``): :func:`bounce_off_posts`;
+* ``Stadium::collisions`` and ``Stadium::calcCollisionPos`` (``src/stadium.cpp``):
+  :func:`resolve_collisions`;
 * ``Player::updateStamina``: :func:`update_stamina`.
 
 :func:`step` chains them. All functions are pure functions of batched arrays whose first axis is
 the game (unless a docstring says "in place"); the only Python loops run over the players
-(P is 2) or pairs of players. Every random draw comes from the generator passed in; with
-``params.without_noise()`` a step is exactly deterministic, and a batch of games gives bit for
-bit the results of the same games stepped one at a time.
+(P is 2), pairs of players, or the server's bounded repetitions (collision passes, post bounces),
+each on the games that still need one. Every random draw comes from the generator passed in;
+with ``params.without_noise()`` a step is exactly deterministic, and a batch of games gives bit
+for bit the results of the same games stepped one at a time.
 
-Simplifications against the server (SPEC §3): one collision pass instead of up to ten; a
-ball-player overlap moves only the ball; goal posts push players (not the ball) out and reflect
-them like every other collision (velocity times -0.1); coincident centres separate along +x
-instead of a random direction; no wind, no heterogeneous players, no ``extra_stamina`` and no
-``stamina_capacity``.
+What HFO's client library adds (librcsc, the agents' side): a kick is sent only when the ball is
+within ``client_kickable_area`` (1.03, :func:`kickable`), and a negative kick power becomes 0.
+
+Simplifications against the server: coincident centres separate along x instead of at a random
+angle (the server draws one); the server's 0.01 % widening loop after a separation (which only
+acts on rounding errors) is left out; no wind, no heterogeneous players, no ``extra_stamina`` and
+no ``stamina_capacity``.
 """
 
 from __future__ import annotations
@@ -38,7 +43,9 @@ from envs.soccer.params import ServerParams
 from envs.soccer.state import DASH, KICK, TURN, Commands, SoccerState
 
 __all__ = [
+    "COLLISION_PASSES",
     "COLLISION_VELOCITY_FACTOR",
+    "bounce_off_posts",
     "dash_acceleration",
     "dash_direction",
     "dash_direction_rate",
@@ -48,7 +55,9 @@ __all__ = [
     "kick_noise",
     "kickable",
     "move_objects",
+    "nearest_post",
     "resolve_collisions",
+    "server_kickable",
     "step",
     "turn_body",
     "turn_moment_effect",
@@ -58,6 +67,16 @@ __all__ = [
 
 COLLISION_VELOCITY_FACTOR = -0.1
 """Velocities of colliding objects are multiplied by this (rcssserver ``updateCollisionVel``)."""
+
+COLLISION_PASSES = 10
+"""Most collision passes per cycle (``Stadium::collisions``: ``max_loop = 10``)."""
+
+POST_BOUNCES = 4
+"""Most post bounces of one object in one cycle (the server loops until none; two posts 14 m
+apart allow one bounce in practice)."""
+
+_EPS = 1.0e-10
+"""rcssserver's ``EPS`` (``utility.h``): added to separation distances and post bounces."""
 
 _HALF_DEG2RAD = math.pi / 360.0  # degrees -> half the angle in radians
 _RAD2DEG = 180.0 / math.pi
@@ -309,17 +328,37 @@ def turn_body(body: np.ndarray, delta: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------------------------------------
 # kick (Player::kick)
 # ------------------------------------------------------------------------------------------------
-def kickable(state: SoccerState, params: ServerParams) -> np.ndarray:
-    """(N, P) bool: the ball centre is within ``kickable_area`` (1.085) of the player centre.
+def _ball_distance2(state: SoccerState) -> np.ndarray:
+    """(N, P) squared centre distance between the ball and every player."""
+    return _distance2(state.ball_pos, state.pos)
 
-    Server (``Player::ballKickable``): ``distance2(player, ball) <= kickable_area ** 2``.
-    """
-    dx = _relative(state.ball_pos[:, 0], state.pos[..., 0])
-    dy = _relative(state.ball_pos[:, 1], state.pos[..., 1])
+
+def _distance2(ball_pos: np.ndarray, pos: np.ndarray) -> np.ndarray:
+    """(N, P) squared distance between ``ball_pos`` (N, 2) and ``pos`` (N, P, 2)."""
+    dx = _relative(ball_pos[:, 0], pos[..., 0])
+    dy = _relative(ball_pos[:, 1], pos[..., 1])
     dx *= dx
     dy *= dy
     dx += dy
-    return dx <= params.kickable_area**2
+    return dx
+
+
+def kickable(state: SoccerState, params: ServerParams) -> np.ndarray:
+    """(N, P) bool: an HFO agent can kick the ball, i.e. librcsc's kickable test passes.
+
+    librcsc (``SelfObject::updateBallInfo``, ball seen this cycle, which full state always is):
+    ``dist <= kickable_area - 0.055`` = ``client_kickable_area`` (1.03). This is the agents'
+    kickable feature, and librcsc refuses to send a kick otherwise, so it is also the test
+    :func:`step` applies to kicks. ``params.kickable_buffer = 0`` gives :func:`server_kickable`.
+    """
+    return _ball_distance2(state) <= params.client_kickable_area**2
+
+
+def server_kickable(state: SoccerState, params: ServerParams) -> np.ndarray:
+    """(N, P) bool: the server's own test, ``distance2(player, ball) <= kickable_area ** 2``
+    (``Player::ballKickable``, 1.085). HFO's referee counts a player within it (strictly) as
+    touching the ball (:func:`step` keeps ``ball_touched`` with it)."""
+    return _ball_distance2(state) <= params.kickable_area**2
 
 
 def kick_effective_power(
@@ -389,12 +428,13 @@ def move_objects(
     decay: float,
     u_magnitude: np.ndarray | None = None,
     u_direction: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
+    posts: tuple[float, float, float] | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """One cycle of motion for a batch of objects of one kind (players or the ball).
 
     a <- a * min(1, accel_max / |a|); v <- v + a; v <- v * min(1, speed_max / |v|);
     v <- v + noise, noise of magnitude U(0, rand * |v|) in a uniform direction U(-pi, pi);
-    pos <- pos + v; v <- v * decay.
+    the goal posts (:func:`bounce_off_posts`); pos <- pos + v; v <- v * decay.
 
     As in the server, the two caps apply only to accelerated objects: with ``accel`` None they
     are skipped (in a batch with an acceleration, objects with a zero one are capped too, which
@@ -407,7 +447,9 @@ def move_objects(
         bind).
     :param u_magnitude: uniform draws in [0, 1) shaped like ``pos[..., 0]``, or None (no noise).
     :param u_direction: uniform draws in [0, 1) shaped like ``pos[..., 0]``.
-    :return: new (pos, vel).
+    :param posts: (post x, post |y|, post radius + object size), or None for no posts.
+    :return: new (pos, vel, post_hit), ``post_hit`` shaped like ``pos[..., 0]`` (None without
+        posts): the object touched a post during the move.
     """
     noisy = u_magnitude is not None and rand > 0.0
     if accel is not None:
@@ -441,65 +483,211 @@ def move_objects(
         vx += nx
         vy += ny
     new_pos = pos + v
+    hit = None
+    if posts is not None:
+        hit = bounce_off_posts(pos, new_pos, v, *posts)
     v *= decay
-    return new_pos, v
+    return new_pos, v, hit
 
 
 # ------------------------------------------------------------------------------------------------
-# collisions (Stadium::collisions, goal posts)
+# goal posts (MPObject::_inc: nearestPost, intersect)
 # ------------------------------------------------------------------------------------------------
-def _unit_rows(
-    dx: np.ndarray, dy: np.ndarray, d2: np.ndarray, length: float
+def nearest_post(x: np.ndarray, y: np.ndarray, post_x: float, post_y: float) -> tuple[np.ndarray, np.ndarray]:
+    """Centre of the post the server tests an object at (x, y) against (``nearestPost``): the
+    one in the same quadrant, (+-post_x, +-post_y), with x > 0 and y > 0 choosing the plus signs."""
+    return np.where(x > 0.0, post_x, -post_x), np.where(y > 0.0, post_y, -post_y)
+
+
+def _segment_hits_circle(
+    bx: np.ndarray, by: np.ndarray, ex: np.ndarray, ey: np.ndarray, cx: np.ndarray, cy: np.ndarray, r: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(dx, dy) rescaled to ``length``; zero vectors become (length, 0)."""
-    d = np.sqrt(d2)
-    zero = d == 0.0
-    if _count(zero):
-        dx = dx + zero
-        d += zero
-    np.divide(length, d, out=d)
-    return dx * d, dy * d
+    """Where the move from b to e first enters the circle (c, r) (rcssserver ``intersect``).
+
+    :return: (hit, t): hit (k,) bool, t (k,) the fraction of the move at the entry point.
+        No hit when the move is zero, when the line only touches the circle, when neither
+        crossing lies on the move, or when the object starts on the circle moving away.
+    """
+    sx = ex - bx
+    sy = ey - by
+    ox = bx - cx
+    oy = by - cy
+    a = sx * sx + sy * sy
+    half_b = ox * sx + oy * sy
+    c = ox * ox + oy * oy - r * r
+    disc = half_b * half_b - a * c
+    moving = a > 0.0
+    hit = moving & (disc > 0.0)
+    if not _count(hit):  # the usual case: the line passes the circle by
+        return hit, disc
+    root = np.sqrt(np.where(hit, disc, 0.0))
+    safe_a = np.where(moving, a, 1.0)
+    t1 = (-half_b - root) / safe_a
+    t2 = (-half_b + root) / safe_a
+    in1 = (t1 >= 0.0) & (t1 <= 1.0)
+    in2 = (t2 >= 0.0) & (t2 <= 1.0)
+    t = np.where(in1, t1, t2)
+    hit &= in1 | in2
+    hit &= ~((t == 0.0) & ~(in1 & in2))  # tangent at the start and moving away: no collision
+    return hit, t
 
 
-def _push_off_posts(pos: np.ndarray, col_post: np.ndarray, params: ServerParams) -> bool:
-    """Move players that overlap a goal post out to touching distance, in place; mark them in
-    ``col_post``. Tests x near the goal line, then |y| near a post, then the distance, so that
-    the usual case (nobody near a post) costs two numpy calls. Returns whether any moved."""
-    touch = params.player_size + params.goal_post_radius
-    post_x = params.half_length
-    post_y = 0.5 * params.goal_width
-    near = pos[..., 0] > post_x - touch
+def bounce_off_posts(
+    start: np.ndarray, end: np.ndarray, vel: np.ndarray, post_x: float, post_y: float, radius: float
+) -> np.ndarray:
+    """The goal posts of ``MPObject::_inc``, in place on ``end`` and ``vel``.
+
+    Posts are circles at (+-post_x, +-post_y) (52.44, 7.07: 52.5 - 0.06, 7.01 + 0.06), and an
+    object collides with one when its centre comes within ``radius`` = post radius + its own
+    size. As in the server, for an object at ``start`` moving by ``vel`` (before decay):
+
+    1. an object already inside its nearest post is put on the circle (along the centre line,
+       +x if it is at the centre) and its velocity mirrored about that line;
+    2. while the move crosses the circle of the post nearest its start or its end, the object
+       goes to the entry point (nudged ``EPS`` outwards), the rest of the move is mirrored
+       about the line to the post centre, and the velocity keeps its speed along the mirrored
+       rest (an elastic bounce, not the -0.1 of object collisions);
+    3. ``end`` becomes the final position.
+
+    Only objects whose move comes near a post are computed, gathered by index.
+
+    :param start: (..., 2) positions before the move (not modified).
+    :param end: (..., 2) start + vel, modified in place.
+    :param vel: (..., 2) velocity of the move, modified in place.
+    :return: bool array shaped like ``start[..., 0]``: the object touched a post.
+    """
+    hit_all = np.zeros(start.shape[:-1], dtype=bool)
+    x0 = start[..., 0]
+    x1 = end[..., 0]
+    reach = post_x - radius
+    near = np.abs(x0) > reach
+    near |= np.abs(x1) > reach
     if not _count(near):
-        return False
-    flat = np.flatnonzero(near)  # index into pos seen as (N * P, 2)
-    flat_pos = pos.reshape(-1, 2)
-    y = flat_pos[flat, 1]
-    gap = np.abs(y)
-    gap -= post_y
-    near = np.abs(gap) < touch
+        return hit_all
+    flat = np.flatnonzero(near)
+    s2 = start.reshape(-1, 2)
+    e2 = end.reshape(-1, 2)
+    v2 = vel.reshape(-1, 2)
+    y0 = s2[flat, 1]
+    y1 = e2[flat, 1]
+    lo = np.minimum(y0, y1)
+    hi = np.maximum(y0, y1)
+    near = (hi > post_y - radius) & (lo < post_y + radius)
+    near |= (hi > -post_y - radius) & (lo < -post_y + radius)
     if not _count(near):
-        return False
+        return hit_all
     flat = flat[near]
-    x = flat_pos[flat, 0]
-    y = y[near]
+    bx, by = s2[flat, 0], s2[flat, 1]
+    vx, vy = v2[flat, 0], v2[flat, 1]
     hit = np.zeros(flat.shape[0], dtype=bool)
-    for post in (-post_y, post_y):
-        dx = x - post_x
-        dy = y - post
-        d2 = dx * dx
-        d2 += dy * dy
-        on_post = d2 < touch * touch
-        if _count(on_post):
-            ux, uy = _unit_rows(dx[on_post], dy[on_post], d2[on_post], touch)
-            x[on_post] = post_x + ux
-            y[on_post] = post + uy
-            hit |= on_post
+
+    # 1. inside a post already: out to the circle, velocity mirrored about the centre line
+    cx, cy = nearest_post(bx, by, post_x, post_y)
+    dx, dy = bx - cx, by - cy
+    d = np.sqrt(dx * dx + dy * dy)
+    inside = d < radius
+    if _count(inside):
+        centre = d == 0.0
+        dx = np.where(centre, radius, dx)
+        d = np.where(centre, 1.0, d)
+        scale = np.where(inside, radius / np.where(inside, d, 1.0), 1.0)
+        dx, dy = dx * scale, dy * scale
+        for _ in range(8):  # rounding may leave it a hair inside: the server widens by 1 %
+            short = inside & (dx * dx + dy * dy < radius * radius)
+            if not _count(short):
+                break
+            dx = np.where(short, dx * 1.01, dx)
+            dy = np.where(short, dy * 1.01, dy)
+        bx = np.where(inside, cx + dx, bx)
+        by = np.where(inside, cy + dy, by)
+        nx, ny = cx - bx, cy - by
+        n2 = nx * nx + ny * ny
+        dot = np.where(inside & (n2 > 0.0), 2.0 * (vx * nx + vy * ny) / np.where(n2 > 0.0, n2, 1.0), 0.0)
+        vx = vx - dot * nx
+        vy = vy - dot * ny
+        hit |= inside
+    ex, ey = bx + vx, by + vy
+
+    # 2. the move crosses a post: bounce, as often as it takes
+    active = np.ones(flat.shape[0], dtype=bool)
+    for _ in range(POST_BOUNCES):
+        c1x, c1y = nearest_post(bx, by, post_x, post_y)
+        c2x, c2y = nearest_post(ex, ey, post_x, post_y)
+        hit1, t1 = _segment_hits_circle(bx, by, ex, ey, c1x, c1y, radius)
+        other = (c1x != c2x) | (c1y != c2y)
+        if _count(other):  # the move ends in another quadrant: test that post too
+            hit2, t2 = _segment_hits_circle(bx, by, ex, ey, c2x, c2y, radius)
+            hit2 &= other & ~hit1
+        else:
+            hit2, t2 = other, t1
+        now = (hit1 | hit2) & active
+        if not _count(now):
+            break
+        t = np.where(hit1, t1, t2)
+        cx = np.where(hit1, c1x, c2x)
+        cy = np.where(hit1, c1y, c2y)
+        ix = bx + t * (ex - bx)
+        iy = by + t * (ey - by)
+        rx, ry = ex - ix, ey - iy  # rest of the move
+        ux, uy = cx - ix, cy - iy
+        u = np.sqrt(ux * ux + uy * uy)
+        u = np.where(u > 0.0, u, 1.0)
+        ux /= u
+        uy /= u
+        dot = 2.0 * (rx * ux + ry * uy)
+        rx -= dot * ux
+        ry -= dot * uy
+        nbx = ix - _EPS * ux
+        nby = iy - _EPS * uy
+        speed = np.sqrt(vx * vx + vy * vy)
+        rest = np.sqrt(rx * rx + ry * ry)
+        along = np.where(rest > 0.0, speed / np.where(rest > 0.0, rest, 1.0), 0.0)
+        vx = np.where(now, np.where(rest > 0.0, rx * along, speed), vx)
+        vy = np.where(now, ry * along, vy)
+        bx = np.where(now, nbx, bx)
+        by = np.where(now, nby, by)
+        ex = np.where(now, nbx + rx, ex)
+        ey = np.where(now, nby + ry, ey)
+        hit |= now
+        active = now
     if not _count(hit):
-        return False
-    flat_pos[flat, 0] = x
-    flat_pos[flat, 1] = y
-    col_post.reshape(-1)[flat[hit]] = True
-    return True
+        return hit_all
+    rows = flat[hit]
+    e2[rows, 0] = ex[hit]
+    e2[rows, 1] = ey[hit]
+    v2[rows, 0] = vx[hit]
+    v2[rows, 1] = vy[hit]
+    hit_all.reshape(-1)[rows] = True
+    return hit_all
+
+
+# ------------------------------------------------------------------------------------------------
+# collisions (Stadium::collisions)
+# ------------------------------------------------------------------------------------------------
+def _separate(
+    ax: np.ndarray, ay: np.ndarray, bx: np.ndarray, by: np.ndarray, half: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where ``Stadium::calcCollisionPos`` puts two overlapping objects a and b: both at
+    ``half`` = (size_a + size_b) / 2 + EPS from their midpoint, along the line between them
+    (each moves half the overlap); coincident centres (both within EPS of the midpoint)
+    separate along x, b on the +x side.
+
+    :return: (ax', ay', bx', by').
+    """
+    mx = (ax + bx) * 0.5
+    my = (ay + by) * 0.5
+    dx = ax - mx
+    dy = ay - my
+    d = np.sqrt(dx * dx + dy * dy)
+    same = d < _EPS
+    if _count(same):
+        dx = np.where(same, -1.0, dx)
+        dy = np.where(same, 0.0, dy)
+        d = np.where(same, 1.0, d)
+    scale = half / d
+    dx *= scale
+    dy *= scale
+    return mx + dx, my + dy, mx - dx, my - dy
 
 
 def resolve_collisions(
@@ -508,106 +696,124 @@ def resolve_collisions(
     pos: np.ndarray,
     vel: np.ndarray,
     params: ServerParams,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Push overlapping objects apart to touching distance and reflect their velocities, in place.
+) -> tuple[np.ndarray, np.ndarray]:
+    """``Stadium::collisions``: separate overlapping objects, then reflect them, in place.
 
-    * ball-player: |ball - player| < ball_size + player_size moves the ball along the centre
-      line to touching distance (players in index order);
-    * player-player: |p_i - p_j| < 2 player_size moves each by half the overlap along the
-      centre line;
-    * player-post: |player - post| < player_size + goal_post_radius, posts at
-      (half_length, +-goal_width / 2), moves the player out to touching distance.
-
-    Coincident centres separate along +x. Each object that collided gets v <- -0.1 v (once,
-    however many collisions). Overlaps are rare, so after one test over the batch the
-    corrections are computed only for the overlapping rows, gathered by index.
+    Each pass tests every ball-player pair (|ball - player| < ball_size + player_size) and
+    every player pair (|p_i - p_j| < 2 player_size) on the positions at the start of the pass;
+    each overlapping pair gets target positions from :func:`_separate` (both objects move
+    apart, each by half the overlap), and an object in several pairs goes to the mean of its
+    targets. Passes repeat, up to :data:`COLLISION_PASSES` (10), in the games where something
+    overlapped, until nothing does. Afterwards every object that collided in any pass gets
+    v <- -0.1 v, once. (Goal posts are part of the movement: :func:`bounce_off_posts`.)
 
     :param ball_pos: (N, 2), modified in place.
     :param ball_vel: (N, 2), modified in place.
-    :param pos: (N, P, 2) C-contiguous, modified in place.
-    :param vel: (N, P, 2) C-contiguous, modified in place.
-    :return: (collided_ball, collided_player, collided_post), each (N, P) bool.
+    :param pos: (N, P, 2), modified in place.
+    :param vel: (N, P, 2), modified in place.
+    :return: (collided_ball, collided_player), each (N, P) bool.
     """
-    if not (pos.flags.c_contiguous and vel.flags.c_contiguous):
-        raise ValueError("resolve_collisions needs C-contiguous pos and vel (it writes through flat views)")
     n, n_players = pos.shape[:2]
     col_ball = np.zeros((n, n_players), dtype=bool)
     col_player = np.zeros((n, n_players), dtype=bool)
-    col_post = np.zeros((n, n_players), dtype=bool)
-    hit_any = False
-    px = pos[..., 0]
-    py = pos[..., 1]
-    bx = ball_pos[:, 0]
-    by = ball_pos[:, 1]
+    pairs = [(i, j) for i in range(n_players - 1) for j in range(i + 1, n_players)]
+    touch_bp = params.ball_size + params.player_size
+    touch_pp = 2.0 * params.player_size
+    half_bp = 0.5 * touch_bp + _EPS
+    half_pp = 0.5 * touch_pp + _EPS
 
-    # ball - player, in player order: a push by player i re-measures the ball against the others
-    touch = params.ball_size + params.player_size
-    touch2 = touch * touch
-    dx = _relative(bx, px)
-    dy = _relative(by, py)
-    d2 = dx * dx
-    d2 += dy * dy
-    hit = d2 < touch2
-    if _count(hit):
-        hit_any = True
+    # first pass test over the whole batch (overlaps are rare); later passes on the games hit
+    dx = _relative(ball_pos[:, 0], pos[..., 0])
+    dy = _relative(ball_pos[:, 1], pos[..., 1])
+    dx *= dx
+    dy *= dy
+    dx += dy
+    hit_bp = dx < touch_bp * touch_bp
+    hit_pp = []
+    for i, j in pairs:
+        gx = pos[:, j, 0] - pos[:, i, 0]
+        gy = pos[:, j, 1] - pos[:, i, 1]
+        gx *= gx
+        gy *= gy
+        gx += gy
+        hit_pp.append(gx < touch_pp * touch_pp)
+    any_hit = hit_bp.any(axis=1) if _count(hit_bp) else np.zeros(n, dtype=bool)
+    for h in hit_pp:
+        any_hit |= h
+    if not _count(any_hit):
+        return col_ball, col_player
+
+    rows = np.flatnonzero(any_hit)
+    bx, by = ball_pos[rows, 0], ball_pos[rows, 1]
+    px, py = pos[rows, :, 0], pos[rows, :, 1]
+    hbp = hit_bp[rows]
+    hpp = [h[rows] for h in hit_pp]
+    live = np.arange(rows.shape[0])  # games of ``rows`` still in the loop
+    ball_hit = np.zeros((rows.shape[0], n_players), dtype=bool)
+    pair_hit = np.zeros((rows.shape[0], n_players), dtype=bool)
+    for pass_ in range(COLLISION_PASSES):
+        if pass_:  # re-test the games that moved in the last pass
+            gx = px[live] - bx[live, None]
+            gy = py[live] - by[live, None]
+            hbp = gx * gx + gy * gy < touch_bp * touch_bp
+            hpp = []
+            for i, j in pairs:
+                gx = px[live, j] - px[live, i]
+                gy = py[live, j] - py[live, i]
+                hpp.append(gx * gx + gy * gy < touch_pp * touch_pp)
+            moved = hbp.any(axis=1)
+            for h in hpp:
+                moved |= h
+            if not _count(moved):
+                break
+            live, hbp, hpp = live[moved], hbp[moved], [h[moved] for h in hpp]
+        k = live.shape[0]
+        lbx, lby = bx[live], by[live]
+        lpx, lpy = px[live], py[live]
+        bsx, bsy, bn = np.zeros(k), np.zeros(k), np.zeros(k)
+        psx, psy, pn = np.zeros((k, n_players)), np.zeros((k, n_players)), np.zeros((k, n_players))
         for i in range(n_players):
-            rows = np.flatnonzero(hit[:, i])
-            if rows.shape[0] == 0:
+            h = hbp[:, i]
+            if not _count(h):
                 continue
-            ux, uy = _unit_rows(dx[rows, i], dy[rows, i], d2[rows, i], touch)
-            bx[rows] = px[rows, i] + ux
-            by[rows] = py[rows, i] + uy
-            col_ball[rows, i] = True
-            if i + 1 < n_players:
-                rdx = bx[rows, None] - px[rows]
-                rdy = by[rows, None] - py[rows]
-                dx[rows] = rdx
-                dy[rows] = rdy
-                rdx *= rdx
-                rdy *= rdy
-                rdx += rdy
-                d2[rows] = rdx
-                hit[rows] = rdx < touch2
-
-    # player - player: split the correction
-    touch = 2.0 * params.player_size
-    touch2 = touch * touch
-    for i in range(n_players - 1):
-        for j in range(i + 1, n_players):
-            dx = px[:, j] - px[:, i]
-            dy = py[:, j] - py[:, i]
-            d2 = dx * dx
-            d2 += dy * dy
-            hit = d2 < touch2
-            if not _count(hit):
+            ax, ay, qx, qy = _separate(lbx, lby, lpx[:, i], lpy[:, i], half_bp)
+            bsx += np.where(h, ax, 0.0)
+            bsy += np.where(h, ay, 0.0)
+            bn += h
+            psx[:, i] += np.where(h, qx, 0.0)
+            psy[:, i] += np.where(h, qy, 0.0)
+            pn[:, i] += h
+        for (i, j), h in zip(pairs, hpp, strict=True):
+            if not _count(h):
                 continue
-            hit_any = True
-            rows = np.flatnonzero(hit)
-            ux, uy = _unit_rows(dx[rows], dy[rows], d2[rows], 0.5 * touch)
-            mid = px[rows, i] + px[rows, j]
-            mid *= 0.5
-            px[rows, i] = mid - ux
-            px[rows, j] = mid + ux
-            mid = py[rows, i] + py[rows, j]
-            mid *= 0.5
-            py[rows, i] = mid - uy
-            py[rows, j] = mid + uy
-            col_player[rows, i] = True
-            col_player[rows, j] = True
+            ax, ay, qx, qy = _separate(lpx[:, i], lpy[:, i], lpx[:, j], lpy[:, j], half_pp)
+            psx[:, i] += np.where(h, ax, 0.0)
+            psy[:, i] += np.where(h, ay, 0.0)
+            pn[:, i] += h
+            psx[:, j] += np.where(h, qx, 0.0)
+            psy[:, j] += np.where(h, qy, 0.0)
+            pn[:, j] += h
+            pair_hit[live, i] |= h
+            pair_hit[live, j] |= h
+        ball_hit[live] |= hbp
+        moved_ball = bn > 0.0
+        bx[live] = np.where(moved_ball, bsx / np.where(moved_ball, bn, 1.0), lbx)
+        by[live] = np.where(moved_ball, bsy / np.where(moved_ball, bn, 1.0), lby)
+        moved_player = pn > 0.0
+        px[live] = np.where(moved_player, psx / np.where(moved_player, pn, 1.0), lpx)
+        py[live] = np.where(moved_player, psy / np.where(moved_player, pn, 1.0), lpy)
 
-    # player - goal post
-    hit_any |= _push_off_posts(pos, col_post, params)
-
-    if hit_any:
-        players = col_ball | col_player
-        players |= col_post
-        rows = np.flatnonzero(players)  # into vel seen as (N * P, 2)
-        flat_vel = vel.reshape(-1, 2)
-        flat_vel[rows] *= COLLISION_VELOCITY_FACTOR
-        # a game whose ball hit two players appears twice: an augmented fancy assignment
-        # still applies once per game
-        ball_vel[np.flatnonzero(col_ball) // n_players] *= COLLISION_VELOCITY_FACTOR
-    return col_ball, col_player, col_post
+    ball_pos[rows, 0] = bx
+    ball_pos[rows, 1] = by
+    pos[rows, :, 0] = px
+    pos[rows, :, 1] = py
+    col_ball[rows] = ball_hit
+    col_player[rows] = pair_hit
+    players = ball_hit | pair_hit
+    vel[rows] = np.where(players[..., None], vel[rows] * COLLISION_VELOCITY_FACTOR, vel[rows])
+    ball_moved = ball_hit.any(axis=1)
+    ball_vel[rows] = np.where(ball_moved[:, None], ball_vel[rows] * COLLISION_VELOCITY_FACTOR, ball_vel[rows])
+    return col_ball, col_player
 
 
 # ------------------------------------------------------------------------------------------------
@@ -655,7 +861,8 @@ def step(
     turn, or kick when the ball is kickable: :func:`kickable`), move every object
     (:func:`move_objects`), clip players into the pitch plus ``pitch_margin``, resolve
     collisions (:func:`resolve_collisions`), update stamina (:func:`update_stamina`), advance
-    the cycle. ``ball_touched`` becomes the new cycle in games where a kick succeeded.
+    the cycle. ``ball_touched`` becomes the new cycle in games where a player ends the cycle
+    strictly within ``kickable_area`` of the ball (HFO's referee: that player "touches" it).
 
     Random draws: whenever any of ``player_rand``, ``ball_rand``, ``kick_rand`` is positive, one
     block ``rng.random((N, 5P + 2))`` per step (columns: turn noise [0, P), kick noise magnitude
@@ -698,7 +905,6 @@ def step(
 
     # --- kick ---
     ball_accel = None
-    kicked = None
     is_kick = kind == KICK
     if _count(is_kick):
         ball_pos = state.ball_pos
@@ -706,7 +912,7 @@ def step(
         dy = _relative(ball_pos[:, 1], state.pos[..., 1])
         dist = dx * dx
         dist += dy * dy
-        kicking = dist <= p.kickable_area**2  # as kickable()
+        kicking = dist <= p.client_kickable_area**2  # librcsc sends no kick otherwise: kickable()
         kicking &= is_kick
         if _count(kicking):
             np.sqrt(dist, out=dist)
@@ -716,7 +922,8 @@ def step(
             dir_diff -= body
             np.abs(dir_diff, out=dir_diff)  # in [0, 360]: fold into [0, 180]
             np.minimum(dir_diff, 360.0 - dir_diff, out=dir_diff)
-            kick_power = np.minimum(np.maximum(power, p.minpower), p.maxpower)
+            # librcsc turns a negative power into 0, then the server clips to [minpower, maxpower]
+            kick_power = np.minimum(np.maximum(power, max(p.minpower, 0.0)), p.maxpower)
             kick_power *= kicking
             half = np.minimum(np.maximum(direction, p.minmoment), p.maxmoment)
             half += body
@@ -731,11 +938,9 @@ def step(
                 ay += ny
             bax = ax[:, 0].copy()
             bay = ay[:, 0].copy()
-            kicked = kicking[:, 0].copy()
             for i in range(1, n_players):
                 bax += ax[:, i]
                 bay += ay[:, i]
-                kicked |= kicking[:, i]
             ball_accel = (bax, bay)
 
     # --- movement ---
@@ -749,7 +954,7 @@ def step(
     # a dash can never exceed the accel cap with the default constants: skip the test then
     dash_max = p.dash_power_rate * max(p.maxpower, -p.minpower) * max(p.effort_max, 1.0)
     player_accel_max = math.inf if dash_max <= p.player_accel_max else p.player_accel_max
-    pos, vel = move_objects(
+    pos, vel, col_post = move_objects(
         state.pos,
         state.vel,
         player_accel,
@@ -759,8 +964,9 @@ def step(
         p.player_decay,
         u_pm,
         u_pd,
+        (p.goal_post_x, p.goal_post_y, p.goal_post_radius + p.player_size),
     )
-    ball_pos, ball_vel = move_objects(
+    ball_pos, ball_vel, _ = move_objects(
         state.ball_pos,
         state.ball_vel,
         ball_accel,
@@ -770,6 +976,7 @@ def step(
         p.ball_decay,
         u_bm,
         u_bd,
+        (p.goal_post_x, p.goal_post_y, p.goal_post_radius + p.ball_size),
     )
 
     # --- players stay within the pitch plus its margin ---
@@ -780,13 +987,15 @@ def step(
     coord = pos[..., 1]
     np.minimum(np.maximum(coord, -y_lim, out=coord), y_lim, out=coord)
 
-    col_ball, col_player, col_post = resolve_collisions(ball_pos, ball_vel, pos, vel, p)
+    col_ball, col_player = resolve_collisions(ball_pos, ball_vel, pos, vel, p)
     stamina, effort, recovery = update_stamina(stamina, state.effort, state.recovery, p)
 
     cycle = state.cycle + 1
+    # HFO's referee (HFORef::analyse) resets its untouched time whenever a player is strictly
+    # within kickable_area of the ball at the end of a cycle
     ball_touched = state.ball_touched.copy()
-    if kicked is not None:
-        np.copyto(ball_touched, cycle, where=kicked)
+    near = _distance2(ball_pos, pos) < p.kickable_area**2
+    np.copyto(ball_touched, cycle, where=near.any(axis=1))
 
     return SoccerState(
         ball_pos=ball_pos,

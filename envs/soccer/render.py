@@ -258,7 +258,8 @@ def render_frame(
     :param labels: optional text per player (e.g. ``"sighted"``, ``"blind"``), shown by the
         player and in the panel.
     :param kickable_players: optional (P,) booleans, which players to mark as able to kick;
-        by default computed from the state (ball within ``params.kickable_area``).
+        by default computed from the state (ball within ``params.client_kickable_area``, the
+        distance at which an HFO agent can kick).
     :return: uint8 array of shape (height, width, 3).
     """
     n_games, n_players = state.n_games, state.n_players
@@ -271,7 +272,7 @@ def render_frame(
     body = np.radians(np.asarray(state.body[game], dtype=float))
     ball = np.asarray(state.ball_pos[game], dtype=float)
     if kickable_players is None:
-        kick = np.hypot(*(pos - ball).T) <= params.kickable_area
+        kick = np.hypot(*(pos - ball).T) <= params.client_kickable_area
     else:
         kick = np.asarray(kickable_players, dtype=bool).reshape(n_players)
 
@@ -285,7 +286,7 @@ def render_frame(
 
     # Players: kickable ring, body disc, heading line, label.
     radius = max(5.5, params.player_size * lay.scale)
-    ring = params.kickable_area * lay.scale
+    ring = params.client_kickable_area * lay.scale
     for i in range(n_players):
         colour = PLAYER_COLOURS[i % len(PLAYER_COLOURS)]
         x, y = pos[i]

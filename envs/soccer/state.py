@@ -34,7 +34,8 @@ class SoccerState:
     :param collided_ball: (N, P) bool, the player collided with the ball in the last cycle.
     :param collided_player: (N, P) bool, the player collided with another player.
     :param collided_post: (N, P) bool, the player collided with a goal post.
-    :param ball_touched: (N,) int64 cycle of the last kick (HFO's untouched-time rule), -1 never.
+    :param ball_touched: (N,) int64 last cycle that ended with a player strictly within
+        ``kickable_area`` of the ball (HFO's untouched-time rule), -1 never.
     """
 
     ball_pos: np.ndarray

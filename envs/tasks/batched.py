@@ -38,7 +38,20 @@ from envs.tasks.hfo_actions import (
     decode_actions,
 )
 
-__all__ = ["BatchedTask", "proximity"]
+__all__ = ["RULES", "BatchedTask", "check_rules", "proximity"]
+
+RULES = ("paper", "dqn-hfo")
+"""Rule sets of the paper's two tasks: ``"paper"``, the rules as the paper's text states them
+(the default), and ``"dqn-hfo"``, as the authors' code (dqn-hfo's ``scenario``) ran them; see
+SPEC §6 items 6 and 7 and each task's docstring."""
+
+
+def check_rules(rules: str, accepted: tuple[str, ...] = RULES) -> str:
+    """``rules`` if it is one of ``accepted``; otherwise a ``ValueError`` naming the accepted values."""
+    if rules not in accepted:
+        names = ", ".join(repr(r) for r in accepted)
+        raise ValueError(f"rules must be one of {names}, got {rules!r}.")
+    return rules
 
 
 def proximity(distance: np.ndarray, params: ServerParams) -> np.ndarray:
@@ -143,17 +156,23 @@ class BatchedTask:
         """(N, P, n_features) float32 features of every agent (default: HFO low-level features)."""
         return features.low_level_features(state, self.params)
 
-    def _judge(self, state: SoccerState) -> np.ndarray:
-        """(N,) referee code after a step (HFO's referee)."""
-        return referee.judge(state, self.params, self.max_steps, self.untouched_cycles)
+    def _judge(self, previous: SoccerState, state: SoccerState) -> np.ndarray:
+        """(N,) referee code after a step from ``previous`` to ``state`` (HFO's referee)."""
+        return referee.judge(state, self.params, self.max_steps, self.untouched_cycles, previous)
 
     def _evaluate(
-        self, previous: SoccerState, state: SoccerState, received: np.ndarray, outcome: np.ndarray
+        self,
+        previous: SoccerState,
+        state: SoccerState,
+        received: np.ndarray,
+        outcome: np.ndarray,
+        sent: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Rewards (N, P) and termination (N,) of a step from ``previous`` to ``state``.
 
         :param received: (N, P, channel_size) the messages in the observation the agents acted on.
         :param outcome: (N,) referee codes of ``state``.
+        :param sent: (N, P, channel_size) the messages the agents send at this step.
         """
         raise NotImplementedError
 
@@ -261,8 +280,8 @@ class BatchedTask:
         previous = self.state
         state = physics.step(previous, commands, self.params, self._rng)
         self._steps += 1
-        outcome = self._judge(state)
-        rewards, terminated = self._evaluate(previous, state, self._received, outcome)
+        outcome = self._judge(previous, state)
+        rewards, terminated = self._evaluate(previous, state, self._received, outcome, sent)
         rewards = rewards.astype(np.float32, copy=False)
         terminated = np.asarray(terminated, dtype=bool)
         # HFO's untouched-ball rule is a time limit too: it truncates rather than terminates

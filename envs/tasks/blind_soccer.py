@@ -9,9 +9,13 @@ agent's ball proximity,
     r_t = prox_t - prox_{t-1} = 2 (d_{t-1} - d_t) / 62.55,   d = |blind agent - ball|,
 
 so an episode's return is the blind agent's total normalised approach to the ball. An episode
-terminates when the blind agent can kick the ball; it also terminates when HFO's referee ends
-the game (a goal, or the ball out of bounds, which only a kick or a collision can cause), and is
-truncated after ``max_steps`` = 100 steps.
+terminates when the blind agent can kick the ball (HFO's kickable test, librcsc's 1.03); it also
+terminates when HFO's referee ends the game (a goal, or the ball out of bounds, which only a kick
+or a collision can cause), and is truncated after ``max_steps`` = 100 steps.
+
+``rules="dqn-hfo"`` ends the episode as the authors' code does (SPEC §6 item 6): when *either*
+agent can kick the ball, so an episode also ends when the ball starts or rolls within the
+sighted agent's reach.
 """
 
 from __future__ import annotations
@@ -19,8 +23,9 @@ from __future__ import annotations
 import numpy as np
 
 from envs.soccer import physics, referee
+from envs.soccer.params import ServerParams
 from envs.soccer.state import SoccerState
-from envs.tasks.batched import BatchedTask, proximity
+from envs.tasks.batched import BatchedTask, check_rules, proximity
 
 __all__ = ["BLIND", "SIGHTED", "BlindSoccerTask", "blind_proximity"]
 
@@ -39,8 +44,11 @@ class BlindSoccerTask(BatchedTask):
 
     Observation per agent: 66 HFO features (all zero for the blind agent) followed by the
     teammate's message (``channel_size`` = 4 by default): 70 entries. Action per agent: the
-    8-entry HFO action followed by the outgoing message. See :class:`BatchedTask` for the
-    constructor arguments (``max_steps`` defaults to 100).
+    8-entry HFO action followed by the outgoing message.
+
+    :param rules: ``"paper"`` (default): the episode ends when the blind agent can kick the
+        ball; ``"dqn-hfo"``: when either agent can (the authors' code).
+    :param kwargs: see :class:`BatchedTask` (``max_steps`` defaults to 100).
     """
 
     name = "blind_soccer_v0"
@@ -48,6 +56,21 @@ class BlindSoccerTask(BatchedTask):
     default_channel_size = 4
     default_max_steps = 100
     ball_x_range = (0.0, 0.8)
+
+    def __init__(
+        self,
+        n_games: int = 1,
+        seed: int | None = None,
+        params: ServerParams | None = None,
+        noise: bool = True,
+        max_steps: int | None = None,
+        autoreset: bool = True,
+        channel_size: int | None = None,
+        ball_x_range: tuple[float, float] | None = None,
+        rules: str = "paper",
+    ) -> None:
+        self.rules = check_rules(rules)
+        super().__init__(n_games, seed, params, noise, max_steps, autoreset, channel_size, ball_x_range)
 
     def _post_init(self) -> None:
         self.can_dash = np.array([False, True])  # the sighted agent cannot move
@@ -58,10 +81,16 @@ class BlindSoccerTask(BatchedTask):
         return feats
 
     def _evaluate(
-        self, previous: SoccerState, state: SoccerState, received: np.ndarray, outcome: np.ndarray
+        self,
+        previous: SoccerState,
+        state: SoccerState,
+        received: np.ndarray,
+        outcome: np.ndarray,
+        sent: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
         reward = blind_proximity(state, self.params) - blind_proximity(previous, self.params)
         rewards = np.repeat(reward[:, None], 2, axis=1)  # shared by both agents
-        blind_kickable = physics.kickable(state, self.params)[:, BLIND]
-        terminated = blind_kickable | (outcome == referee.GOAL) | (outcome == referee.OUT_OF_BOUNDS)
+        kickable = physics.kickable(state, self.params)
+        ended = kickable[:, BLIND] if self.rules == "paper" else kickable.any(axis=1)
+        terminated = ended | (outcome == referee.GOAL) | (outcome == referee.OUT_OF_BOUNDS)
         return rewards, terminated

@@ -12,6 +12,11 @@ after ``max_steps`` = 100 steps; the referee never ends them (a ball out of boun
 rolling). At the first step the received message is 0, so the maximum return is one near-zero
 reward (0.1 * exp(-50 h^2), 1.3e-15 for |h| = 0.8) plus 99 rewarded steps of 0.1: about 9.9
 (the paper's "maximum achievable reward is 10").
+
+``rules="dqn-hfo"`` runs the task as the authors' code does (SPEC §6 items 6, 7): the reward
+uses the message the teammate sends at the same step, r_t^(i) = 0.1 exp(-50 (h_i - m_t^(j))^2)
+(maximum return 10.0), and HFO's referee ends an episode on any status other than IN_GAME (a
+goal, or the ball out of bounds).
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ import numpy as np
 from envs.soccer import referee
 from envs.soccer.params import ServerParams
 from envs.soccer.state import SoccerState
-from envs.tasks.batched import BatchedTask
+from envs.tasks.batched import BatchedTask, check_rules
 
 __all__ = ["ALPHA", "BETA", "GuessMyNumberTask", "guess_reward"]
 
@@ -44,6 +49,9 @@ class GuessMyNumberTask(BatchedTask):
     enters the reward when ``channel_size`` > 1.
 
     :param hidden_numbers: the two hidden numbers, each in [-1, 1].
+    :param rules: ``"paper"`` (default): reward for the teammate's previous message, only the
+        time limit ends an episode; ``"dqn-hfo"``: reward for the message sent in the same step,
+        and HFO's referee ends episodes (the authors' code).
     :param kwargs: see :class:`BatchedTask` (``max_steps`` defaults to 100, ``channel_size`` to 1).
     """
 
@@ -63,7 +71,9 @@ class GuessMyNumberTask(BatchedTask):
         channel_size: int | None = None,
         ball_x_range: tuple[float, float] | None = None,
         hidden_numbers: Sequence[float] = (-0.8, 0.8),
+        rules: str = "paper",
     ) -> None:
+        self.rules = check_rules(rules)
         hidden = np.asarray(hidden_numbers, dtype=np.float64)
         if hidden.shape != (2,) or not np.all(np.isfinite(hidden)) or np.any(np.abs(hidden) > 1.0):
             raise ValueError(f"hidden_numbers must be two numbers in [-1, 1], got {hidden_numbers!r}.")
@@ -75,11 +85,24 @@ class GuessMyNumberTask(BatchedTask):
     def _extra_observation(self) -> np.ndarray:
         return self.hidden_numbers.astype(np.float32)[:, None]  # agent i sees h_i
 
-    def _judge(self, state: SoccerState) -> np.ndarray:
+    def _judge(self, previous: SoccerState, state: SoccerState) -> np.ndarray:
+        if self.rules == "dqn-hfo":
+            return super()._judge(previous, state)
         return np.full(state.n_games, referee.IN_GAME, dtype=np.int64)  # only the time limit ends a game
 
     def _evaluate(
-        self, previous: SoccerState, state: SoccerState, received: np.ndarray, outcome: np.ndarray
+        self,
+        previous: SoccerState,
+        state: SoccerState,
+        received: np.ndarray,
+        outcome: np.ndarray,
+        sent: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
-        rewards = guess_reward(self.hidden_numbers[None, :], received[..., 0].astype(np.float64))
-        return rewards, np.zeros(state.n_games, dtype=bool)
+        if self.rules == "paper":  # the teammate's message of the previous step, m_{t-1}
+            heard = received[..., 0]
+            terminated = np.zeros(state.n_games, dtype=bool)
+        else:  # dqn-hfo: the teammate's message of this step, m_t; any end of play ends it
+            heard = sent[:, self._teammate, 0]
+            terminated = (outcome == referee.GOAL) | (outcome == referee.OUT_OF_BOUNDS)
+        rewards = guess_reward(self.hidden_numbers[None, :], heard.astype(np.float64))
+        return rewards, terminated

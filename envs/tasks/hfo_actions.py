@@ -10,7 +10,8 @@ The executed action is the argmax of the scores (ties go to the lowest index) wi
 parameters. The bounds are those of HFO's DDPG agent: dash power in [0, 100] (the server accepts
 [-100, 100]; HFO's DDPG never dashed backwards), directions in [-180, 180] degrees, kick power in
 [0, 100]. Values outside the bounds are passed on unchanged: the server step clips them the way
-rcssserver does.
+rcssserver does, after librcsc's own changes (a negative kick power becomes 0, and no kick is sent
+unless the ball is within librcsc's kickable distance, 1.03).
 """
 
 from __future__ import annotations

@@ -88,7 +88,12 @@ class MoveToBallTask(BatchedTask):
         return kickable, KICKABLE_BONUS * first
 
     def _evaluate(
-        self, previous: SoccerState, state: SoccerState, received: np.ndarray, outcome: np.ndarray
+        self,
+        previous: SoccerState,
+        state: SoccerState,
+        received: np.ndarray,
+        outcome: np.ndarray,
+        sent: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
         kickable, bonus = self._kickable_bonus(state)
         reward = _ball_proximity(state, self.params) - _ball_proximity(previous, self.params) + bonus
@@ -105,7 +110,12 @@ class ScoreEmptyGoalTask(MoveToBallTask):
     untouched_cycles = 100
 
     def _evaluate(
-        self, previous: SoccerState, state: SoccerState, received: np.ndarray, outcome: np.ndarray
+        self,
+        previous: SoccerState,
+        state: SoccerState,
+        received: np.ndarray,
+        outcome: np.ndarray,
+        sent: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
         _, bonus = self._kickable_bonus(state)
         reward = _ball_proximity(state, self.params) - _ball_proximity(previous, self.params) + bonus
