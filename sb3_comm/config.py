@@ -53,17 +53,6 @@ ZOO_KEYS = ("policy", "n_envs", "n_timesteps")
 DEFAULT_N_ENVS = 1
 DEFAULT_N_TIMESTEPS = 100_000
 
-_NOT_CONFIGURABLE = {
-    "self",
-    "policy",
-    "env",
-    "tensorboard_log",
-    "verbose",
-    "seed",
-    "device",
-    "_init_setup_model",
-}
-
 
 def _methods() -> tuple[str, ...]:
     from sb3_comm.comm_ddpg import METHODS
@@ -74,9 +63,10 @@ def _methods() -> tuple[str, ...]:
 def accepted_keys() -> list[str]:
     """Every key a hyperparameter entry may have: rl-zoo3's keys and CommDDPG's arguments."""
     from sb3_comm.comm_ddpg import CommDDPG
+    from sb3_comm.hybrid_ddpg.hybrid_ddpg import NOT_HYPERPARAMETERS
 
     params = inspect.signature(CommDDPG.__init__).parameters
-    return sorted({*ZOO_KEYS, *(p for p in params if p not in _NOT_CONFIGURABLE)})
+    return sorted({*ZOO_KEYS, *(p for p in params if p not in NOT_HYPERPARAMETERS)})
 
 
 def check_keys(settings: Mapping[str, Any], where: str, exclude: tuple[str, ...] = ()) -> None:

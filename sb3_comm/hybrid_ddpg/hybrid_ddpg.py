@@ -44,23 +44,20 @@ from sb3_comm.common.networks import inverting_gradients
 from sb3_comm.common.validation import HYPERPARAMETERS, Range, check_hyperparameters
 from sb3_comm.hybrid_ddpg.policies import HybridPolicy
 
-__all__ = ["WEIGHTS_FORMAT", "HybridDDPG", "check_schedule"]
+__all__ = ["NOT_HYPERPARAMETERS", "WEIGHTS_FORMAT", "HybridDDPG", "check_schedule"]
 
 SelfHybridDDPG = TypeVar("SelfHybridDDPG", bound="HybridDDPG")
 
 WEIGHTS_FORMAT = 1
 """Version of the ``config.json`` written by :meth:`HybridDDPG.save_weights`."""
 
+NOT_HYPERPARAMETERS = frozenset(
+    {"self", "policy", "env", "tensorboard_log", "verbose", "seed", "device", "_init_setup_model"}
+)
+"""Constructor arguments that are not hyperparameters (what a run or the caller supplies)."""
+
 # Constructor arguments that are not settings of the model (or are stored apart, as policy_kwargs).
-_NOT_WEIGHTS_SETTINGS = {
-    "self",
-    "policy",
-    "env",
-    "tensorboard_log",
-    "verbose",
-    "seed",
-    "device",
-    "_init_setup_model",
+_NOT_WEIGHTS_SETTINGS = NOT_HYPERPARAMETERS | {
     "policy_kwargs",
     "action_noise",
     "replay_buffer_class",
