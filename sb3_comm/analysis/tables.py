@@ -21,11 +21,9 @@ import numpy as np
 
 from sb3_comm.analysis.runs import communication_of, final_return
 from sb3_comm.analysis.stats import interval_estimates
+from sb3_comm.evaluation import ABLATIONS
 
 __all__ = ["ABLATIONS", "METRICS", "communication_table", "final_returns_table"]
-
-ABLATIONS = ("none", "zero", "shuffle")
-"""The messages at the final evaluation: intact, zeroed, shuffled across episodes."""
 
 METRICS = ("cic", "speaker_consistency", "instantaneous_coordination", "probe_accuracy", "majority_rate")
 """Communication metrics per channel direction, as ``result.json`` names them."""
