@@ -99,7 +99,10 @@ def main() -> None:
         for method in args.methods
         for seed in args.seeds
     ]
-    with mp.get_context("spawn").Pool(min(args.workers, len(jobs))) as pool:
+    from sb3_comm.common.files import die_with_parent
+
+    # The workers end with this process (a killed benchmark leaves no orphan training on).
+    with mp.get_context("spawn").Pool(min(args.workers, len(jobs)), initializer=die_with_parent) as pool:
         runs = pool.map(run_one, jobs)
 
     rows = [
