@@ -453,9 +453,18 @@ def train_run(
         model = build_model(config, tensorboard_log=str(run_dir / "tb"), device=device, verbose=verbose)
     try:
         return _train(
-            model, config, run_dir, settings, save_freq, callbacks, config_hash, eval_verbose,
-            progress_bar, save_replay_buffer, resume,
-        )  # fmt: skip
+            model,
+            config,
+            run_dir,
+            settings,
+            save_freq=save_freq,
+            callbacks=callbacks,
+            config_hash=config_hash,
+            eval_verbose=eval_verbose,
+            progress_bar=progress_bar,
+            save_replay_buffer=save_replay_buffer,
+            resume=resume,
+        )
     except BaseException as error:
         write_failure(run_dir, error)
         raise
