@@ -134,14 +134,10 @@ class AtomicCheckpointCallback(CheckpointCallback):
     def _on_step(self) -> bool:
         if self.n_calls % self.save_freq != 0:
             return True
-        model_path = self._checkpoint_path(extension="zip")
-        save_model(self.model, model_path)
+        with_buffer = self.save_replay_buffer and getattr(self.model, "replay_buffer", None) is not None
+        model_path = _save_checkpoint(self.model, Path(self.save_path), with_buffer, self.name_prefix)
         if self.verbose >= 2:
             print(f"Saving model checkpoint to {model_path}")
-        if self.save_replay_buffer and getattr(self.model, "replay_buffer", None) is not None:
-            buffer_path = self._checkpoint_path("replay_buffer_", extension="pkl")
-            with atomic_path(buffer_path) as tmp:
-                self.model.save_replay_buffer(tmp)  # type: ignore[attr-defined]
         vec_normalize = self.model.get_vec_normalize_env()
         if self.save_vecnormalize and vec_normalize is not None:
             with atomic_path(self._checkpoint_path("vecnormalize_", extension="pkl")) as tmp:
@@ -300,15 +296,16 @@ def latest_checkpoint(
     return candidates[0], buffer if buffer.exists() else None
 
 
-def _save_checkpoint(model: CommDDPG, folder: Path, save_replay_buffer: bool) -> Path:
-    """A checkpoint named as SB3's, written atomically; the buffer first, so that a checkpoint's
-    zip means it is complete."""
+def _save_checkpoint(model: Any, folder: Path, save_replay_buffer: bool, prefix: str = "model") -> Path:
+    """A checkpoint named as SB3's CheckpointCallback names it, written atomically; the buffer
+    first, so that a checkpoint's zip means it is complete (the periodic checkpoints of
+    :class:`AtomicCheckpointCallback` and the one saved on a signal)."""
     folder.mkdir(parents=True, exist_ok=True)
     steps = model.num_timesteps
     if save_replay_buffer:
-        with atomic_path(folder / f"model_replay_buffer_{steps}_steps.pkl") as tmp:
+        with atomic_path(folder / f"{prefix}_replay_buffer_{steps}_steps.pkl") as tmp:
             model.save_replay_buffer(tmp)
-    return save_model(model, folder / f"model_{steps}_steps.zip")
+    return save_model(model, folder / f"{prefix}_{steps}_steps.zip")
 
 
 def _resume_model(
