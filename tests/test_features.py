@@ -445,3 +445,23 @@ def test_hidden_teammates_are_skipped_among_three() -> None:
     np.testing.assert_allclose(f, reference(s, 0, 0), atol=ATOL)
     np.testing.assert_array_equal(f[F.TEAMMATE_START + 8 : F.TEAMMATE_START + 16], np.zeros(8))
     assert f[F.TEAMMATE_START + 2] == pytest.approx(1 - 2 * 18.0 / MAX_DIST, abs=ATOL)
+
+
+def test_features_written_into_a_strided_view_match_and_stay_in_bounds() -> None:
+    """``out=`` takes the feature part of an observation buffer (rows longer than the features):
+    same values as a fresh array, the rest of each row untouched, every value in [-1, 1]."""
+    rng = np.random.default_rng(5)
+    s = SoccerState.zeros(300, 2)
+    s.pos[:] = rng.uniform(-50, 50, size=s.pos.shape)
+    s.ball_pos[:] = rng.uniform(-50, 50, size=s.ball_pos.shape)
+    s.vel[:] = rng.uniform(-1, 1, size=s.vel.shape)
+    s.body[:] = rng.uniform(-180, 180, size=s.body.shape)
+    fresh = F.low_level_features(s)
+    buffer = np.full((300, 2, fresh.shape[-1] + 4), 7.0, dtype=np.float32)
+    returned = F.low_level_features(s, out=buffer[..., : fresh.shape[-1]])
+    assert np.shares_memory(returned, buffer)
+    np.testing.assert_array_equal(buffer[..., : fresh.shape[-1]], fresh)
+    np.testing.assert_array_equal(buffer[..., fresh.shape[-1] :], 7.0)
+    assert fresh.min() >= -1.0 and fresh.max() <= 1.0
+    with pytest.raises(ValueError, match="out must be a float32 array of shape"):
+        F.low_level_features(s, out=np.empty((300, 2, 3), dtype=np.float32))

@@ -403,6 +403,24 @@ def test_ball_rolling_into_a_post_bounces():
     assert s.ball_vel[0, 0] == pytest.approx(-1.88 * 0.94, abs=1e-9)
 
 
+@pytest.mark.parametrize(("gap", "bounces"), [(2.8, True), (2.9, False)])
+def test_fast_ball_bounces_only_when_its_move_enters_the_post(gap, bounces):
+    """A ball moving at 2.7 straight at a post from ``gap`` metres: from 2.8 m its move enters
+    the circle of radius 0.06 + 0.085 after 2.655 m and the last 0.045 m go back; from 2.9 m it
+    stops 0.2 m from the centre, outside the circle, and nothing happens (the far-off objects
+    the simulator skips before testing posts must not include it)."""
+    r = 0.06 + 0.085
+    s = game(ball=(POST[0] - gap, POST[1]), ball_vel=(2.7, 0.0))
+    nxt = run(s, Commands.noop(1, 2))
+    if bounces:
+        assert nxt.ball_pos[0, 0] == pytest.approx(POST[0] - r - (2.7 - (gap - r)), abs=1e-9)
+        assert nxt.ball_vel[0, 0] == pytest.approx(-2.7 * 0.94, abs=1e-9)
+    else:
+        assert nxt.ball_pos[0, 0] == pytest.approx(POST[0] - gap + 2.7, abs=1e-12)
+        assert nxt.ball_vel[0, 0] == pytest.approx(2.7 * 0.94, abs=1e-12)
+    assert nxt.ball_pos[0, 1] == pytest.approx(POST[1], abs=1e-9)
+
+
 def test_ball_glancing_off_a_post_is_mirrored_about_the_centre_line():
     """A move that enters the post circle off-centre: the rest of the move is mirrored about the
     line from the entry point to the post centre; the object ends outside the circle."""

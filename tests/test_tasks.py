@@ -266,6 +266,21 @@ def test_autoreset_semantics_with_mixed_endings():
     np.testing.assert_array_equal(task.state.cycle, [1, 0, 1])
 
 
+@pytest.mark.parametrize("module", MODULES)
+def test_autoreset_of_several_games_gives_their_own_first_observations(module):
+    """Games reset together are observed in one padded feature pass (3 fresh games padded to 4):
+    each gets exactly the first observation a task started in its state gives."""
+    task = module.batched_env(n_games=6, seed=3, noise=False, max_steps=2)
+    rng = np.random.default_rng(0)
+    task.step(_random_actions(task, rng))
+    task._steps[[0, 2, 5]] = task.max_steps - 1  # these three reach the time limit now
+    obs, _, _, _, info = task.step(_random_actions(task, rng))
+    ended = np.flatnonzero(info["done"])
+    assert set(ended) >= {0, 2, 5}
+    alone = module.batched_env(n_games=ended.size, seed=0, noise=False)
+    np.testing.assert_array_equal(obs[ended], alone.load_state(task.state.select(ended)))
+
+
 def test_reset_games_without_autoreset():
     task = guess_my_number_v0.batched_env(n_games=3, seed=0, autoreset=False, max_steps=2)
     task.step(_turn_actions(task))

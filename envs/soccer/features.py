@@ -308,6 +308,9 @@ class _Workspace:
 
 
 _LOCAL = threading.local()
+_WORKSPACES = 16
+"""Workspaces kept per thread, least recently used dropped first (a batched task uses one per
+padded batch size: its games, and its games plus a power of two of fresh ones)."""
 
 
 def _workspace(n: int, p: int, n_opponents: int, params: ServerParams) -> _Workspace:
@@ -316,11 +319,12 @@ def _workspace(n: int, p: int, n_opponents: int, params: ServerParams) -> _Works
     if cache is None:
         cache = _LOCAL.cache = {}
     key = (n, p, n_opponents, id(params))
-    ws = cache.get(key)
+    ws = cache.pop(key, None)  # re-inserted below: the dict's order is least recently used first
     if ws is None or ws.params is not params:
-        if len(cache) >= 8:
-            cache.clear()
-        ws = cache[key] = _Workspace(n, p, n_opponents, params)
+        if len(cache) >= _WORKSPACES:
+            del cache[next(iter(cache))]
+        ws = _Workspace(n, p, n_opponents, params)
+    cache[key] = ws
     return ws
 
 
@@ -358,6 +362,7 @@ def low_level_features(
     params: ServerParams = DEFAULT_PARAMS,
     n_opponents: int = 0,
     kickable: np.ndarray | None = None,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """HFO low-level features (2016 layout, SPEC §3) of every player of every game.
 
@@ -367,8 +372,8 @@ def low_level_features(
     requested, are 0 too. A zero vector (a target at the player's position, a
     player or ball at rest) has direction 0, as ``atan2(0, 0)`` in HFO.
 
-    Computed in float32; the result does not depend on the batch size. Thread-safe (work arrays
-    are per thread).
+    Computed in float32 and clipped to [-1, 1] (float32 trigonometry can land one ulp outside);
+    the result does not depend on the batch size. Thread-safe (work arrays are per thread).
 
     :param state: the batched games (N games, P players).
     :param params: field geometry and the normalisers (``max_dist``, ``observed_*_speed_max``,
@@ -376,7 +381,10 @@ def low_level_features(
     :param n_opponents: number of (absent) opponents to reserve feature blocks for.
     :param kickable: optional (N, P) bool, ``physics.kickable(state, params)`` if the caller
         has it already (the kickable feature is exactly the simulator's test); computed if None.
-    :return: float32 array of shape (N, P, 58 + 8 (P - 1) + 8 n_opponents).
+    :param out: optional float32 (N, P, F) array to write into; it may be a view with strided
+        rows, such as the feature part of an observation buffer (saves a copy).
+    :return: float32 array of shape (N, P, F), F = 58 + 8 (P - 1) + 8 n_opponents (``out`` if
+        given).
     """
     n, p = state.pos.shape[:2]
     m, t = n * p, p - 1
@@ -488,6 +496,12 @@ def low_level_features(
             if _count(hidden):
                 block *= ~hidden
 
-    out = np.empty((n, p, ft.shape[0]), dtype=_F32)
-    _rows_to_columns(ft, out.reshape(m, ft.shape[0]))
+    np.minimum(ft, 1.0, out=ft)
+    np.maximum(ft, -1.0, out=ft)
+    if out is None:
+        out = np.empty((n, p, ft.shape[0]), dtype=_F32)
+    elif out.shape != (n, p, ft.shape[0]) or out.dtype != _F32:
+        shape = (n, p, ft.shape[0])
+        raise ValueError(f"out must be a float32 array of shape {shape}, got {out.dtype} {out.shape}.")
+    _rows_to_columns(ft, np.reshape(out, (m, ft.shape[0]), copy=False))  # a view, or ValueError
     return out

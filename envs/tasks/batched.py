@@ -152,9 +152,10 @@ class BatchedTask:
         """(P, E) task entries appended after the features of each agent (default: none)."""
         return np.zeros((self.n_players, 0), dtype=np.float32)
 
-    def _features(self, state: SoccerState) -> np.ndarray:
-        """(N, P, n_features) float32 features of every agent (default: HFO low-level features)."""
-        return features.low_level_features(state, self.params)
+    def _features(self, state: SoccerState, out: np.ndarray) -> None:
+        """Write the (N, P, n_features) float32 features of every agent, each in [-1, 1], into
+        ``out`` (default: HFO low-level features)."""
+        features.low_level_features(state, self.params, out=out)
 
     def _judge(self, previous: SoccerState, state: SoccerState) -> np.ndarray:
         """(N,) referee code after a step from ``previous`` to ``state`` (HFO's referee)."""
@@ -304,11 +305,15 @@ class BatchedTask:
             # one feature pass over the stepped games and the fresh ones (a pass has a fixed cost)
             games = np.flatnonzero(done)
             fresh = reset_state(self._rng, games.size, self.n_players, self.params, self.ball_x_range)
-            silence = np.zeros((games.size, self.n_players, self.channel_size), dtype=np.float32)
-            both = self._observe(_concatenate(state, fresh), np.concatenate([self._received, silence]))
+            # padded to a few batch sizes, so that the feature pass reuses its work arrays
+            # (features of a game do not depend on the others; the padding is dropped)
+            padding = _padded_size(games.size) - games.size
+            combined = _concatenate(state, fresh, fresh.select(np.zeros(padding, dtype=np.intp)))
+            silence = np.zeros((games.size + padding, self.n_players, self.channel_size), dtype=np.float32)
+            both = self._observe(combined, np.concatenate([self._received, silence]))
             final_obs = both[: self.n_games]
             obs = final_obs.copy()
-            obs[games] = both[self.n_games :]
+            obs[games] = both[self.n_games : self.n_games + games.size]
             self._install(games, fresh)
         else:
             obs = final_obs = self._observe(state, self._received)
@@ -378,10 +383,7 @@ class BatchedTask:
     def _observe(self, state: SoccerState, received: np.ndarray) -> np.ndarray:
         obs = np.empty((state.n_games, self.n_players, self.observation_size), dtype=np.float32)
         f, e = self.n_features, self.n_extra
-        feats = self._features(state)
-        # float32 trigonometry can land one ulp outside [-1, 1]: keep the declared bounds exact
-        np.clip(feats, -1.0, 1.0, out=feats)
-        obs[..., :f] = feats
+        self._features(state, obs[..., :f])
         if e:
             obs[..., f : f + e] = self._extra
         if self.channel_size:
@@ -411,11 +413,16 @@ class BatchedTask:
         self._on_reset(games)
 
 
-def _concatenate(first: SoccerState, second: SoccerState) -> SoccerState:
-    """The games of ``first`` followed by those of ``second``."""
+def _padded_size(k: int) -> int:
+    """The batch size ``k`` fresh games are padded to: the next power of two."""
+    return 1 << (k - 1).bit_length()
+
+
+def _concatenate(*states: SoccerState) -> SoccerState:
+    """The games of ``states``, one after the other."""
     return SoccerState(
         **{
-            field.name: np.concatenate([getattr(first, field.name), getattr(second, field.name)])
-            for field in dataclasses.fields(first)
+            field.name: np.concatenate([getattr(state, field.name) for state in states])
+            for field in dataclasses.fields(states[0])
         }
     )

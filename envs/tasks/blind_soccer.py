@@ -75,10 +75,9 @@ class BlindSoccerTask(BatchedTask):
     def _post_init(self) -> None:
         self.can_dash = np.array([False, True])  # the sighted agent cannot move
 
-    def _features(self, state: SoccerState) -> np.ndarray:
-        feats = super()._features(state)
-        feats[:, BLIND] = 0.0  # the blind agent's features are present but constantly zero
-        return feats
+    def _features(self, state: SoccerState, out: np.ndarray) -> None:
+        super()._features(state, out)
+        out[:, BLIND] = 0.0  # the blind agent's features are present but constantly zero
 
     def _evaluate(
         self,
