@@ -9,8 +9,10 @@ from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback
 
+from sb3_comm.common.train_log import dump_only
 from sb3_comm.evaluation import evaluate_team
 from sb3_comm.results import write_json
+from sb3_comm.tensorboard import log_video, tensorboard_video
 
 __all__ = ["TeamEvalCallback", "TimeBudgetCallback"]
 
@@ -18,9 +20,12 @@ __all__ = ["TeamEvalCallback", "TimeBudgetCallback"]
 class TeamEvalCallback(BaseCallback):
     """Evaluate the team every ``eval_freq`` environment steps on ``n_episodes`` parallel games.
 
-    Logs ``eval/mean_return`` (and ``eval/return_<agent>``) to the model's logger, keeps the
-    learning curve in :attr:`history`, and records when the mean return first reached
-    ``target_return`` (wall-clock seconds and steps). With ``stop_at_target`` training stops there.
+    Writes ``eval/mean_return`` (and ``eval/return_<agent>``, ``eval/std_return``) to the model's
+    logger at the step of every evaluation (one logger dump of its own, which leaves the training
+    values gathered for the next point alone), keeps the learning curve in :attr:`history`, and
+    records when the mean return first reached ``target_return`` (wall-clock seconds and steps).
+    With ``stop_at_target`` training stops there. With ``video_every`` K, every K-th evaluation
+    also plays one rendered episode into TensorBoard (``eval/video``, messages drawn as bars).
 
     :param env_id: registered id of the task to evaluate on.
     :param eval_freq: evaluate every this many environment steps (``model.num_timesteps``).
@@ -33,6 +38,8 @@ class TeamEvalCallback(BaseCallback):
         evaluation (so a run that dies keeps it).
     :param history: the curve of an earlier session of the same run (a resumed run): kept, and
         continued (its last point's ``seconds`` is where the training time resumes counting).
+    :param video_every: a video every this many evaluations (0: none).
+    :param video_steps: at most this many steps per video.
     """
 
     def __init__(
@@ -47,8 +54,16 @@ class TeamEvalCallback(BaseCallback):
         log_path: str | Path | None = None,
         history: list[dict[str, float]] | None = None,
         verbose: int = 0,
+        video_every: int = 0,
+        video_steps: int = 100,
     ) -> None:
         super().__init__(verbose)
+        if isinstance(video_every, bool) or not isinstance(video_every, int) or video_every < 0:
+            raise ValueError(
+                f"video_every must be a whole number of evaluations ≥ 0 (0: none), got {video_every!r}"
+            )
+        self.video_every = video_every
+        self.video_steps = video_steps
         self.env_id = env_id
         self.eval_freq = eval_freq
         self.n_episodes = n_episodes
@@ -91,11 +106,19 @@ class TeamEvalCallback(BaseCallback):
         elapsed = time.perf_counter() - self._start - self.eval_seconds + self.seconds_offset
         point = {"timesteps": self.num_timesteps, "seconds": elapsed, **summary}
         self.history.append(point)
-        self.logger.record("eval/mean_return", summary["mean_return"])
+        values: dict[str, Any] = {"eval/mean_return": summary["mean_return"]}
+        if "std_return" in summary:
+            values["eval/std_return"] = summary["std_return"]
         names = getattr(self.model, "comm_layout", None)
         for i, value in enumerate(summary["agent_mean_returns"]):
             name = names.agent_names[i] if names is not None else str(i)
-            self.logger.record(f"eval/return_{name}", value)
+            values[f"eval/return_{name}"] = value
+        dump_only(self.logger, values, self.num_timesteps)
+        if self.video_every and len(self.history) % self.video_every == 0:
+            began = time.perf_counter()
+            frames = tensorboard_video(self.model, self.env_id, self.video_steps, self.seed, self.env_kwargs)
+            log_video(self.logger, "eval/video", frames, self.num_timesteps)
+            self.eval_seconds += time.perf_counter() - began
         if self.verbose:
             print(f"[eval] steps={self.num_timesteps} mean_return={summary['mean_return']:.4f}")
         if (

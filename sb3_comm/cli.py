@@ -156,6 +156,8 @@ _RUN_FLAGS = {
     "eval_freq": "--eval-freq",
     "eval_episodes": "--eval-episodes",
     "save_freq": "--save-freq",
+    "log_interval": "--log-interval",
+    "video_every": "--video-every",
 }
 """Flags that define a run: a resume takes them from the run folder instead."""
 
@@ -175,8 +177,19 @@ def _train(args: argparse.Namespace) -> int:
     print(f"Model:       {run_dir / 'model.zip'}")
     print(f"Curve:       {run_dir / 'evaluations.json'}")
     print(f"Result:      {run_dir / 'result.json'}")
-    print(f"TensorBoard: tensorboard --logdir {run_dir / 'tb'}")
+    print(f"TensorBoard: tensorboard --logdir {_tensorboard_dir(run_dir)}")
     return 0
+
+
+def _tensorboard_dir(run_dir: Path) -> Path:
+    """The run's TensorBoard folder, as its run_settings.json records it."""
+    from sb3_comm.results import read_json
+    from sb3_comm.training import RUN_SETTINGS
+
+    try:
+        return Path(read_json(run_dir / RUN_SETTINGS).get("tensorboard_dir") or run_dir / "tb")
+    except (OSError, ValueError):
+        return run_dir / "tb"
 
 
 def _resume(args: argparse.Namespace) -> tuple[Any, Path]:
@@ -222,6 +235,7 @@ def _new_run(args: argparse.Namespace) -> tuple[Any, Path]:
     evaluation = EvalSettings(
         freq=25_000 if args.eval_freq is None else args.eval_freq,
         episodes=100 if args.eval_episodes is None else args.eval_episodes,
+        video_every=args.video_every or 0,
     )
     try:
         result = train_run(
@@ -234,6 +248,7 @@ def _new_run(args: argparse.Namespace) -> tuple[Any, Path]:
             eval_verbose=1,
             progress_bar=not args.no_progress_bar,
             save_replay_buffer=args.save_replay_buffer,
+            log_interval=args.log_interval,
         )
     except BaseException:
         if not any(run_dir.iterdir()):  # failed before writing anything: leave no empty run folder
@@ -254,6 +269,11 @@ def _evaluate(args: argparse.Namespace) -> int:
             {"env": env_id, "method": model.method, "ablation": args.ablation, **result.summary()}, indent=2
         )
     )
+    if args.projector is not None:
+        from sb3_comm.tensorboard import write_projector
+
+        folder = write_projector(model, env_id, args.projector, n_episodes=args.episodes, seed=args.seed)
+        print(f"Projector: tensorboard --logdir {folder}  (PROJECTOR tab)")
     return 0
 
 
@@ -403,6 +423,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="checkpoint every N env steps (default 100000; 0: no checkpoints)",
     )
     train.add_argument(
+        "--log-interval",
+        type=_count(0, " (0: no training points)"),
+        default=None,
+        help="TensorBoard training point every N env steps (default: about 200 per run; 0: none)",
+    )
+    train.add_argument(
+        "--video-every",
+        type=_count(0, " (0: no videos)"),
+        default=None,
+        help="a rendered evaluation episode in TensorBoard every K evaluations (default 0: none)",
+    )
+    train.add_argument(
         "--save-replay-buffer",
         action="store_true",
         help="save the replay buffer with every checkpoint, so that --resume continues with it",
@@ -424,6 +456,12 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--episodes", type=_count(1), default=100)
     evaluate.add_argument("--seed", type=int, default=12345)
     evaluate.add_argument("--ablation", choices=ABLATIONS, default="none")
+    evaluate.add_argument(
+        "--projector",
+        metavar="TB_DIR",
+        default=None,
+        help="also write the messages of --episodes games to TensorBoard's Embedding Projector in TB_DIR",
+    )
     evaluate.add_argument("--device", default="cpu")
     evaluate.set_defaults(func=_evaluate)
 

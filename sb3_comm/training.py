@@ -6,7 +6,9 @@
 
 - ``config.yml``: the :class:`~sb3_comm.config.RunConfig` (what ``sb3-comm evaluate`` reads);
 - ``run_settings.json``: the seed, evaluation and checkpoint settings (what a resume reads);
-- ``tb/`` (TensorBoard), ``checkpoints/`` (``model_<steps>_steps.zip``, and
+- ``tb/`` (TensorBoard event files, unless ``tensorboard_dir`` puts them elsewhere: dense
+  training curves, every evaluation, message histograms, hyperparameters, the messages in the
+  Embedding Projector), ``checkpoints/`` (``model_<steps>_steps.zip``, and
   ``model_replay_buffer_<steps>_steps.pkl`` with ``save_replay_buffer``) and ``evaluations.json``
   (the learning curve, rewritten after every evaluation so that a run that dies keeps it);
 - ``model.zip`` (also written when training is interrupted);
@@ -61,7 +63,6 @@ from typing import Any
 
 import yaml
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback
-from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.vec_env import VecEnv
 
 from sb3_comm.callbacks import TeamEvalCallback
@@ -70,8 +71,10 @@ from sb3_comm.common.files import atomic_path, write_text
 from sb3_comm.common.validation import Range
 from sb3_comm.config import RunConfig
 from sb3_comm.evaluation import ABLATIONS, evaluate_team
+from sb3_comm.hybrid_ddpg.hybrid_ddpg import LOG_POINTS
 from sb3_comm.registration import make_comm_vec_env
 from sb3_comm.results import RunResult, read_json, to_jsonable, write_json
+from sb3_comm.tensorboard import event_logger, record_hparams, write_projector
 
 __all__ = [
     "AtomicCheckpointCallback",
@@ -101,6 +104,10 @@ class EvalSettings:
     :param analysis_episodes: games recorded for the communication analysis (0: none).
     :param analysis_seed: seed of those games.
     :param target_return: the return that counts as solved (time and steps to it are recorded).
+    :param video_every: a rendered evaluation episode in TensorBoard every this many evaluations
+        (0: none).
+    :param projector_episodes: games whose messages go to TensorBoard's Embedding Projector at
+        the end of training (0: none; tasks without a channel have none).
     """
 
     freq: int = 25_000
@@ -111,11 +118,14 @@ class EvalSettings:
     analysis_episodes: int = 0
     analysis_seed: int = 0
     target_return: float | None = None
+    video_every: int = 0
+    projector_episodes: int = 20
 
     def __post_init__(self) -> None:
         for name in ("freq", "episodes"):
             Range(1, whole=True)(name, getattr(self, name))
-        Range(0, whole=True)("analysis_episodes", self.analysis_episodes)
+        for name in ("analysis_episodes", "video_every", "projector_episodes"):
+            Range(0, whole=True)(name, getattr(self, name))
 
     def describe(self) -> dict[str, Any]:
         """The ``eval`` entry of a :class:`~sb3_comm.results.RunResult`."""
@@ -327,9 +337,7 @@ def _resume_model(
         )
     checkpoint, buffer = found
     env = make_comm_vec_env(config.task, n_envs=config.n_envs, seed=config.seed)
-    model = CommDDPG.load(
-        checkpoint, env=env, device=device, tensorboard_log=str(run_dir / "tb"), verbose=verbose
-    )
+    model = CommDDPG.load(checkpoint, env=env, device=device, verbose=verbose)
     # No random state is saved: reseed away from the first session's draws, reproducibly.
     model.set_random_seed(config.seed + model.num_timesteps)
     model._last_obs = None  # the games restart: learn() resets them
@@ -344,14 +352,61 @@ def _resume_model(
     return model
 
 
+def _remaining_interval(log_interval: int | None, config: RunConfig, done: int) -> int | None:
+    """The logging interval of a (resumed) run: the given one, or the default of the whole budget
+    (so that a resumed run keeps the grid of points it started on)."""
+    if log_interval is not None:
+        return log_interval
+    per_point = max(config.n_timesteps // LOG_POINTS, 1)
+    return max(config.n_envs, per_point // config.n_envs * config.n_envs)
+
+
+def _finish_tensorboard(
+    model: CommDDPG, config: RunConfig, result: RunResult, settings: EvalSettings, tb_dir: Path
+) -> None:
+    """The run's hyperparameters and final metrics (HPARAMS view), and its messages in the
+    Embedding Projector. A failure here is a warning: the run itself is done."""
+    metrics: dict[str, float | None] = {
+        f"final/mean_return{'' if name == 'none' else '_' + name}": summary["mean_return"]
+        for name, summary in result.final.items()
+    }
+    metrics["final/train_seconds"] = result.train_seconds
+    if result.steps_to_target is not None:
+        metrics["final/steps_to_target"] = float(result.steps_to_target)
+    hparams = {"method": config.method, "task": config.task, "seed": config.seed, **result.hyperparams}
+    try:
+        record_hparams(model.logger, hparams, metrics, int(model.num_timesteps))
+        if settings.projector_episodes > 0 and model.comm_layout.channel_size:
+            write_projector(
+                model,
+                config.task,
+                tb_dir,
+                n_episodes=settings.projector_episodes,
+                seed=settings.analysis_seed,
+            )
+    except Exception as error:
+        warnings.warn(
+            f"TensorBoard hparams/projector not written: {type(error).__name__}: {error}", stacklevel=2
+        )
+    finally:
+        model.logger.close()
+
+
 def _run_settings(
-    settings: EvalSettings, seed: int, save_freq: int, save_replay_buffer: bool
+    settings: EvalSettings,
+    seed: int,
+    save_freq: int,
+    save_replay_buffer: bool,
+    log_interval: int | None,
+    tensorboard_dir: Path,
 ) -> dict[str, Any]:
     return {
         "seed": seed,
         "evaluation": dataclasses.asdict(settings),
         "save_freq": save_freq,
         "save_replay_buffer": save_replay_buffer,
+        "log_interval": log_interval,
+        "tensorboard_dir": str(tensorboard_dir),
     }
 
 
@@ -403,6 +458,8 @@ def resume_run(
         progress_bar=progress_bar,
         save_replay_buffer=stored["save_replay_buffer"] if save_replay_buffer is None else save_replay_buffer,
         resume=True,
+        log_interval=stored.get("log_interval"),
+        tensorboard_dir=stored.get("tensorboard_dir"),
     )
 
 
@@ -419,6 +476,8 @@ def train_run(
     progress_bar: bool = False,
     save_replay_buffer: bool = False,
     resume: bool = False,
+    log_interval: int | None = None,
+    tensorboard_dir: str | Path | None = None,
 ) -> RunResult:
     """Train, evaluate (and optionally analyse) one run into ``run_dir``.
 
@@ -436,18 +495,24 @@ def train_run(
         ``save_replay_buffer``), so that a resume continues with it.
     :param resume: continue the run in ``run_dir`` from its last checkpoint (``config`` must be its
         ``config.yml``; :func:`resume_run` reads them from the folder).
+    :param log_interval: environment steps between two logged training points (None: about
+        200 per run; 0: none). Every evaluation is logged at its own step regardless.
+    :param tensorboard_dir: where the event files go (default ``run_dir/tb``); an experiment
+        gives each run ``<experiment>/tb/<method>/<task>/seed<seed>``.
     :return: the :class:`~sb3_comm.results.RunResult`, also written to ``run_dir/result.json``.
     :raises TrainingInterrupted: SIGINT or SIGTERM stopped training (a checkpoint was saved).
     """
     settings = evaluation or EvalSettings()
     run_dir = Path(run_dir)
+    tb_dir = Path(tensorboard_dir) if tensorboard_dir is not None else run_dir / "tb"
     if save_freq < 0:
         raise ValueError(f"save_freq must be a whole number ≥ 0 (0: no checkpoints), got {save_freq}")
     if resume:
         model = _resume_model(config, run_dir, save_replay_buffer, device, verbose)
     else:
         run_dir.mkdir(parents=True, exist_ok=True)
-        model = build_model(config, tensorboard_log=str(run_dir / "tb"), device=device, verbose=verbose)
+        model = build_model(config, device=device, verbose=verbose)
+    model.set_logger(event_logger(tb_dir, verbose))
     try:
         return _train(
             model,
@@ -461,6 +526,8 @@ def train_run(
             progress_bar=progress_bar,
             save_replay_buffer=save_replay_buffer,
             resume=resume,
+            log_interval=log_interval,
+            tb_dir=tb_dir,
         )
     except BaseException as error:
         write_failure(run_dir, error)
@@ -479,6 +546,8 @@ def _train(
     progress_bar: bool,
     save_replay_buffer: bool,
     resume: bool,
+    log_interval: int | None,
+    tb_dir: Path,
 ) -> RunResult:
     """The body of :func:`train_run`, once the model exists."""
     began = time.perf_counter()
@@ -494,7 +563,8 @@ def _train(
     else:
         write_text(run_dir / "config.yml", config.to_yaml())
         write_json(
-            run_dir / RUN_SETTINGS, _run_settings(settings, config.seed, save_freq, save_replay_buffer)
+            run_dir / RUN_SETTINGS,
+            _run_settings(settings, config.seed, save_freq, save_replay_buffer, log_interval, tb_dir),
         )
     evaluator = TeamEvalCallback(
         config.task,
@@ -505,6 +575,7 @@ def _train(
         log_path=run_dir / "evaluations.json",
         history=history,
         verbose=eval_verbose,
+        video_every=settings.video_every,
     )
     run_callbacks: list[BaseCallback] = [evaluator]
     if save_freq > 0:
@@ -527,11 +598,10 @@ def _train(
                 remaining,
                 callback=CallbackList([stopper, *run_callbacks, *callbacks]),
                 progress_bar=progress_bar,
-                log_interval=100 * config.n_envs,
+                log_interval=_remaining_interval(log_interval, config, model.num_timesteps),
                 reset_num_timesteps=not resume,
             )
         else:  # the checkpoint holds the whole budget: the run died in its final evaluation
-            model.set_logger(Logger(folder=None, output_formats=[]))
             evaluator.init_callback(model)
             evaluator.on_training_start({}, {})
     except BaseException:
@@ -581,6 +651,7 @@ def _train(
     )
     if settings.analysis_episodes > 0:
         result.communication, result.communication_error = _communication(model, config, run_dir, settings)
+    _finish_tensorboard(model, config, result, settings, tb_dir)
     result.wall_seconds = time.perf_counter() - began
     result.finished = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
     result.save(run_dir / "result.json")  # last: its presence means the run is done

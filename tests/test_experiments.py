@@ -270,7 +270,8 @@ def test_a_run_writes_model_curve_ablations_and_communication(tmp_path: Path, fa
         ("analyse_communication", ("GuessMyNumber-v0", 4, True)),
     ]
     assert (run_dir / "messages.npz").is_file() and (run_dir / "model.zip").is_file()
-    assert list((run_dir / "tb").rglob("events.out.tfevents.*"))
+    # one TensorBoard folder per experiment, a run named by method, task and seed
+    assert list((tmp_path / "tb" / "GSN" / "GuessMyNumber-v0" / "seed0").glob("events.out.tfevents.*"))
     assert sorted(p.name for p in (run_dir / "checkpoints").iterdir()) == [
         "model_200_steps.zip", "model_400_steps.zip"
     ]  # fmt: skip

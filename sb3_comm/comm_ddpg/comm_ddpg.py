@@ -23,6 +23,7 @@ that keeps both agents of a game together, the message channel, and the communic
 
 from __future__ import annotations
 
+import time
 from collections import deque
 from typing import Any, ClassVar, TypeVar
 
@@ -38,6 +39,7 @@ from sb3_comm.comm_ddpg.gsn import GSNTrainingCallback
 from sb3_comm.comm_ddpg.methods import METHODS, TCG
 from sb3_comm.comm_ddpg.policies import CommPolicy, GSNPolicy, NonePolicy, RIALPolicy, TCGPolicy
 from sb3_comm.common.layout import CommLayout
+from sb3_comm.common.train_log import NOT_SCALAR_FORMATS
 from sb3_comm.common.validation import check_hyperparameters
 from sb3_comm.hybrid_ddpg.hybrid_ddpg import HybridDDPG
 
@@ -284,7 +286,10 @@ class CommDDPG(HybridDDPG):
         :return: ``grad`` shaped like ``out`` and ``own_q`` ``(B, n_agents)``.
         """
         grad, own_q = self.critic_action_gradients(obs, out)
+        began = time.perf_counter()
         grad = self.policy.comm_method.actor_gradient(self.policy, grad, out, next_obs, dones, self.tcg_gain)
+        if isinstance(self.policy.comm_method, TCG):  # the receiver critic's pass: TCG's extra cost
+            self.train_log.add("time/tcg_extra_ms", 1000.0 * (time.perf_counter() - began))
         return self.invert_bounded_gradients(grad, out), own_q
 
     def teammate_message_gradients(self, out: th.Tensor, next_obs: th.Tensor, dones: th.Tensor) -> th.Tensor:
@@ -301,20 +306,20 @@ class CommDDPG(HybridDDPG):
 
     def _actor_step_stats(
         self, data: JointReplayBufferSamples, out: th.Tensor, grad: th.Tensor
-    ) -> dict[str, float]:
+    ) -> dict[str, th.Tensor]:
         """Messages sent (mean, std) and, for TCG, the size of the receiver's gradient."""
         policy, layout = self.policy, self.comm_layout
-        stats: dict[str, float] = {}
+        stats: dict[str, th.Tensor] = {}
         if layout.channel_size:
             # The messages sent: actor outputs (RIAL, TCG) or what the GSN sent when acting.
             sent = data.actions[..., layout.action_message_slice]
             if policy.comm_method.comm_actions:
                 sent = out[..., policy.env_action_dim :]
             messages = sent.detach()
-            stats["comm/message_mean"] = messages.mean().item()
-            stats["comm/message_std"] = messages.std().item()
+            stats["comm/message_mean"] = messages.mean()
+            stats["comm/message_std"] = messages.std()
         if isinstance(policy.comm_method, TCG):
-            stats["tcg/grad_norm"] = grad[..., policy.env_action_dim :].norm(dim=-1).mean().item()
+            stats["tcg/grad_norm"] = grad[..., policy.env_action_dim :].norm(dim=-1).mean()
         return stats
 
     # ---------------------------------------------------------------------------- logging --
@@ -325,13 +330,33 @@ class CommDDPG(HybridDDPG):
             if returns is not None:
                 self._agent_returns.append(np.asarray(returns))
 
-    def dump_logs(self) -> None:
-        """SB3's rollout logs plus each agent's mean episode return."""
+    MESSAGE_HISTOGRAM_ROWS = 4096
+    """Most recent transitions whose messages make the histograms of a logged point."""
+
+    def _record_training_point(self) -> None:
+        """The training means, each agent's mean episode return, and histograms of the messages
+        sent (``messages/<agent>/<entry>``, from the most recent transitions in the replay)."""
+        super()._record_training_point()
         if self._agent_returns:
             means = np.mean(np.stack(self._agent_returns), axis=0)
             for name, value in zip(self.comm_layout.agent_names, means, strict=False):
                 self.logger.record(f"rollout/ep_return_{name}", float(value))
-        super().dump_logs()
+        sent = self._recent_messages()
+        if sent is not None:
+            for a, name in enumerate(self.comm_layout.agent_names):
+                for i in range(sent.shape[-1]):
+                    self.logger.record(f"messages/{name}/{i}", sent[:, a, i], exclude=NOT_SCALAR_FORMATS)
+
+    def _recent_messages(self) -> np.ndarray | None:
+        """``(n, n_agents, channel_size)`` messages of the most recent transitions, or None."""
+        buffer, layout = self.replay_buffer, self.comm_layout
+        if buffer is None or not layout.channel_size or (buffer.pos == 0 and not buffer.full):
+            return None
+        rows = max(1, self.MESSAGE_HISTOGRAM_ROWS // buffer.n_envs)
+        end = buffer.pos if buffer.pos > 0 else buffer.buffer_size
+        actions = buffer.actions[max(0, end - rows) : end]
+        actions = actions.reshape(-1, layout.n_agents, layout.action_dim)
+        return actions[..., layout.action_message_slice]
 
     # ---------------------------------------------------------------------- save / load --
     def _excluded_save_params(self) -> list[str]:
@@ -347,7 +372,7 @@ class CommDDPG(HybridDDPG):
         self: SelfCommDDPG,
         total_timesteps: int,
         callback: MaybeCallback = None,
-        log_interval: int = 4,
+        log_interval: int | None = None,
         tb_log_name: str = "CommDDPG",
         reset_num_timesteps: bool = True,
         progress_bar: bool = False,

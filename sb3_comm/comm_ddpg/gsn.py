@@ -14,7 +14,8 @@ callback.
 
 from __future__ import annotations
 
-import numpy as np
+import time
+
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.type_aliases import Schedule
@@ -182,12 +183,13 @@ class GSNTrainingCallback(BaseCallback):
         replay_buffer = self.model.replay_buffer  # type: ignore[attr-defined]
         if gsn is None or n_updates <= 0 or replay_buffer is None:
             return
+        began = time.perf_counter()
         gsn.train(True)
         lr = self.lr_schedule(self.model.progress_remaining)  # type: ignore[attr-defined]
         for group in gsn.optimizer.param_groups:  # type: ignore[union-attr]
             group["lr"] = lr
-        self.logger.record("gsn/learning_rate", lr)
-        losses = []
+        log = self.model.train_log  # type: ignore[attr-defined]
+        log.add("gsn/learning_rate", lr)
         for _ in range(n_updates):
             data = replay_buffer.sample(self.batch_size)
             loss = gsn.loss(data.observations, data.actions, data.rewards)
@@ -196,7 +198,10 @@ class GSNTrainingCallback(BaseCallback):
             if self.max_grad_norm:
                 th.nn.utils.clip_grad_norm_(gsn.parameters(), self.max_grad_norm)
             gsn.optimizer.step()  # type: ignore[union-attr]
-            losses.append(loss.item())
+            log.add("gsn/loss", loss.detach())
+            # the prediction error in reward units (the loss is standardised when normalising)
+            scale = gsn.reward_std.detach() if gsn.normalize_rewards else 1.0
+            log.add("gsn/prediction_rmse", loss.detach().sqrt() * scale)
             self.n_updates += 1
         self.agent_updates_matched += n_updates
-        self.logger.record("gsn/loss", float(np.mean(losses)))
+        log.add("time/gsn_update_ms", 1000.0 * (time.perf_counter() - began), count=n_updates)

@@ -2,10 +2,12 @@
 
 Every run is one call of :func:`sb3_comm.training.train_run` with the run's
 :class:`~sb3_comm.config.RunConfig` (the packaged hyperparameters plus the experiment's
-overrides), into ``OUT/runs/<task>/<method>/seed<seed>-<hash8>/``: ``tb/``, ``checkpoints/``,
+overrides), into ``OUT/runs/<task>/<method>/seed<seed>-<hash8>/``: ``checkpoints/``,
 ``evaluations.json``, ``config.yml``, ``model.zip``, ``messages.npz`` (for the t-SNE of the
 messages) and, last, ``result.json`` (a :class:`~sb3_comm.results.RunResult`: curve, final return
-with messages intact, zeroed and shuffled, communication metrics and timings).
+with messages intact, zeroed and shuffled, communication metrics and timings). The TensorBoard
+event files of every run go to ``OUT/tb/<method>/<task>/seed<seed>/``:
+``tensorboard --logdir OUT/tb`` compares every method and seed in one chart.
 
 A run that raises writes ``error.txt`` (``status: failed``, the reason, the traceback) instead;
 the other runs go on. A run whose ``result.json`` exists is skipped, so an interrupted experiment
@@ -94,12 +96,17 @@ def run_one(run: RunSpec, run_dir: str | Path) -> dict[str, Any]:
         if (run_dir / "result.json").exists():  # finished meanwhile (another invocation)
             return {**read_json(run_dir / "result.json"), "status": "skipped"}
         _move_aside(run_dir)
+        experiment_dir = run_dir.parents[len(run.relative_dir.parts) - 1]
+        tb_dir = experiment_dir / run.tensorboard_dir
+        if tb_dir.is_dir():  # an earlier attempt's curves: kept apart (previous_attempts/<k>)
+            _move_aside(tb_dir)
         result = train_run(
             run.config,
             run_dir,
             evaluation=run.eval_settings,
             save_freq=run.save_freq,
             config_hash=run.config_hash,
+            tensorboard_dir=tb_dir,
         )
         return result.to_json()
     except BaseException as error:

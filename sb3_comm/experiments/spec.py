@@ -180,6 +180,12 @@ class RunSpec:
         return config_hash(self.hash_input)
 
     @property
+    def tensorboard_dir(self) -> Path:
+        """``tb/<method>/<task>/seed<seed>`` (relative to the experiment folder): one TensorBoard
+        folder per experiment, each run named ``GSN/BlindSoccer-v0/seed0`` in its charts."""
+        return Path("tb") / self.method / self.task / f"seed{self.seed}"
+
+    @property
     def relative_dir(self) -> Path:
         """``runs/<task>/<method>/seed<seed>-<hash8>`` (relative to the experiment folder)."""
         return Path("runs") / self.task / self.method / f"seed{self.seed}-{self.config_hash}"

@@ -24,6 +24,7 @@ import io
 import json
 import pathlib
 import pickle
+import time
 import zipfile
 from typing import Any, ClassVar, TypeVar
 
@@ -35,16 +36,26 @@ from stable_baselines3.common.noise import ActionNoise
 from stable_baselines3.common.policies import BasePolicy
 from stable_baselines3.common.save_util import load_from_pkl
 from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule, TrainFreq
-from stable_baselines3.common.utils import FloatSchedule, LinearSchedule, obs_as_tensor, polyak_update
+from stable_baselines3.common.utils import (
+    FloatSchedule,
+    LinearSchedule,
+    obs_as_tensor,
+    polyak_update,
+    update_learning_rate,
+)
 from torch.nn import functional as F
 
 from sb3_comm.common.buffers import MonteCarloReplayBuffer, MonteCarloReplayBufferSamples
 from sb3_comm.common.layout import HybridActionLayout
 from sb3_comm.common.networks import inverting_gradients
+from sb3_comm.common.train_log import TrainLog
 from sb3_comm.common.validation import HYPERPARAMETERS, Range, check_hyperparameters
 from sb3_comm.hybrid_ddpg.policies import HybridPolicy
 
-__all__ = ["NOT_HYPERPARAMETERS", "WEIGHTS_FORMAT", "HybridDDPG", "check_schedule"]
+__all__ = ["LOG_POINTS", "NOT_HYPERPARAMETERS", "WEIGHTS_FORMAT", "HybridDDPG", "check_schedule"]
+
+LOG_POINTS = 200
+"""Logged training points per ``learn`` call when no ``log_interval`` is given."""
 
 SelfHybridDDPG = TypeVar("SelfHybridDDPG", bound="HybridDDPG")
 
@@ -259,6 +270,11 @@ class HybridDDPG(TD3):
             self.exploration_initial_eps, self.exploration_final_eps, self.exploration_fraction
         )
         self._explorable = self._explorable_entries()
+        self.train_log = TrainLog()
+        """Values of the updates since the last logged point (averaged there)."""
+        self.log_interval_steps = 0
+        """Environment steps between two logged training points (0: none); set by ``learn``."""
+        self._next_log_step = 0
 
     # ------------------------------------------------------------------- public counters --
     @property
@@ -274,7 +290,32 @@ class HybridDDPG(TD3):
     # ------------------------------------------------------------------------ exploration --
     def _on_step(self) -> None:
         self.exploration_rate = self.exploration_schedule(self._current_progress_remaining)
+        if self.log_interval_steps and self.num_timesteps >= self._next_log_step:
+            self._next_log_step = (
+                self.num_timesteps // self.log_interval_steps + 1
+            ) * self.log_interval_steps
+            self.dump_logs()
+
+    # ---------------------------------------------------------------------------- logging --
+    def _update_learning_rate(self, optimizers: list[th.optim.Optimizer] | th.optim.Optimizer) -> None:
+        """SB3's, with the rate logged at the next point (not recorded at every update)."""
+        rate = self.lr_schedule(self._current_progress_remaining)
+        for optimizer in optimizers if isinstance(optimizers, list) else [optimizers]:
+            update_learning_rate(optimizer, rate)
+        self.train_log.add("train/learning_rate", rate)
+
+    def _record_training_point(self) -> None:
+        """Record what a logged training point holds besides SB3's rollout values: the means of
+        :attr:`train_log` and the exploration rate. Subclasses add theirs."""
+        for key, value in self.train_log.pop_means().items():
+            self.logger.record(key, value)
         self.logger.record("rollout/exploration_rate", self.exploration_rate)
+        self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
+
+    def dump_logs(self) -> None:
+        """Write one logged point at ``num_timesteps``: training means, then SB3's rollout values."""
+        self._record_training_point()
+        super().dump_logs()
 
     def _sample_action(
         self, learning_starts: int, action_noise: ActionNoise | None = None, n_envs: int = 1
@@ -313,14 +354,15 @@ class HybridDDPG(TD3):
         Monte-Carlo return where β > 0); critic loss; actor loss, by the critic's action gradient
         passed through :meth:`actor_output_gradients`; soft target updates.
         """
+        began = time.perf_counter()
         self.policy.set_training_mode(True)
         self._update_learning_rate([self.critic.optimizer])
+        actor_rate = self.actor_lr_schedule(self._current_progress_remaining)
         for group in self.actor.optimizer.param_groups:
-            group["lr"] = self.actor_lr_schedule(self._current_progress_remaining)
+            group["lr"] = actor_rate
+        log = self.train_log
+        log.add("train/actor_learning_rate", actor_rate)
         policy = self.policy
-        critic_losses: list[float] = []
-        actor_losses: list[float] = []
-        actor_stats: dict[str, list[float]] = {}
         for _ in range(gradient_steps):
             self._n_updates += 1
             # sample
@@ -341,10 +383,16 @@ class HybridDDPG(TD3):
                     target_q = th.where(data.mc_valid.bool(), mixed, target_q)
 
             # critic loss
-            critic_loss = sum(F.mse_loss(q, target_q) for q in policy.q_values(obs, actions))
+            q_values = policy.q_values(obs, actions)
+            critic_loss = sum(F.mse_loss(q, target_q) for q in q_values)
             assert isinstance(critic_loss, th.Tensor)
             self._optimize(self.critic, critic_loss)
-            critic_losses.append(critic_loss.item())
+            log.add("train/critic_loss", critic_loss)
+            q = q_values[0].detach()
+            log.add("train/q_mean", q.mean())
+            log.add("train/q_max", q.max())
+            log.add("train/q_min", q.min())
+            log.add("train/target_q_mean", target_q.mean())
 
             if self._n_updates % self.policy_delay != 0:
                 continue
@@ -354,20 +402,16 @@ class HybridDDPG(TD3):
             grad, own_q = self.actor_output_gradients(obs, out.detach(), next_obs, data.dones)
             actor_surrogate = -(out * grad).sum(dim=-1).mean()
             self._optimize(self.actor, actor_surrogate)
-            actor_losses.append(-own_q.mean().item())
+            log.add("train/actor_loss", -own_q.mean())
             for key, value in self._actor_step_stats(data, out, grad).items():
-                actor_stats.setdefault(key, []).append(value)
+                log.add(key, value)
 
             # soft update
             polyak_update(self.critic.parameters(), self.critic_target.parameters(), self.tau)
             polyak_update(self.actor.parameters(), self.actor_target.parameters(), self.tau)
 
-        self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
-        self.logger.record("train/critic_loss", float(np.mean(critic_losses)))
-        if actor_losses:
-            self.logger.record("train/actor_loss", float(np.mean(actor_losses)))
-        for key, values in actor_stats.items():
-            self.logger.record(key, float(np.mean(values)))
+        if gradient_steps > 0:  # the agent's own update, without the method's extra networks
+            log.add("time/agent_update_ms", 1000.0 * (time.perf_counter() - began), count=gradient_steps)
 
     def critic_action_gradients(self, obs: th.Tensor, out: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
         """``dQ/d out`` of the (first) critic at the actor's outputs, and that critic's ``Q``.
@@ -404,8 +448,8 @@ class HybridDDPG(TD3):
 
     def _actor_step_stats(
         self, data: MonteCarloReplayBufferSamples, out: th.Tensor, grad: th.Tensor
-    ) -> dict[str, float]:
-        """Extra values logged (as means) after each actor update; none for one agent."""
+    ) -> dict[str, th.Tensor]:
+        """Extra values logged (as means, 0-d tensors) after each actor update; none for one agent."""
         return {}
 
     def _optimize(self, module: th.nn.Module, loss: th.Tensor) -> None:
@@ -417,7 +461,7 @@ class HybridDDPG(TD3):
 
     # ---------------------------------------------------------------------- save / load --
     def _excluded_save_params(self) -> list[str]:
-        return [*super()._excluded_save_params(), "_explorable"]
+        return [*super()._excluded_save_params(), "_explorable", "train_log"]
 
     def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
         return ["policy", "actor.optimizer", "critic.optimizer"], []
@@ -618,21 +662,44 @@ class HybridDDPG(TD3):
         self: SelfHybridDDPG,
         total_timesteps: int,
         callback: MaybeCallback = None,
-        log_interval: int = 4,
+        log_interval: int | None = None,
         tb_log_name: str = "HybridDDPG",
         reset_num_timesteps: bool = True,
         progress_bar: bool = False,
     ) -> SelfHybridDDPG:
-        """Train for ``total_timesteps`` environment steps (≥ 1), as in SB3."""
+        """Train for ``total_timesteps`` environment steps (≥ 1), as in SB3.
+
+        :param log_interval: **environment steps** between two logged training points (SB3's
+            off-policy algorithms count episodes, which means little with hundreds of parallel
+            games). Each point holds the means of every training value since the previous one.
+            None: about :data:`LOG_POINTS` points over this call; 0: no training points.
+        """
         Range(1.0)("total_timesteps", total_timesteps)
+        self.log_interval_steps = interval = _log_interval(log_interval, total_timesteps, self.n_envs)
+        start = 0 if reset_num_timesteps else self.num_timesteps
+        self._next_log_step = (start // interval + 1) * interval if interval else 0
         return super().learn(
             total_timesteps=total_timesteps,
             callback=callback,
-            log_interval=log_interval,
+            log_interval=None,  # the points come from _on_step, every log_interval_steps
             tb_log_name=tb_log_name,
             reset_num_timesteps=reset_num_timesteps,
             progress_bar=progress_bar,
         )
+
+
+def _log_interval(log_interval: int | None, total_timesteps: int, n_envs: int) -> int:
+    """Environment steps between logged points: the given number, or about ``LOG_POINTS`` per
+    run on the grid of ``n_envs`` steps (one vectorised step)."""
+    if log_interval is None:
+        per_point = max(total_timesteps // LOG_POINTS, 1)
+        return max(n_envs, per_point // n_envs * n_envs)
+    if isinstance(log_interval, bool) or not isinstance(log_interval, (int, np.integer)) or log_interval < 0:
+        raise ValueError(
+            f"log_interval must be a whole number of environment steps ≥ 0 (0: no training points) "
+            f"or None (about {LOG_POINTS} points), got {log_interval!r}"
+        )
+    return int(log_interval)
 
 
 _CLASS_MODULES = {"activation_fn": (th.nn, th.nn.Module), "optimizer_class": (th.optim, th.optim.Optimizer)}
