@@ -496,8 +496,7 @@ def low_level_features(
             if _count(hidden):
                 block *= ~hidden
 
-    np.minimum(ft, 1.0, out=ft)
-    np.maximum(ft, -1.0, out=ft)
+    np.clip(ft, -1.0, 1.0, out=ft)
     if out is None:
         out = np.empty((n, p, ft.shape[0]), dtype=_F32)
     elif out.shape != (n, p, ft.shape[0]) or out.dtype != _F32:

@@ -568,21 +568,12 @@ def bounce_off_posts(
     s2 = start.reshape(-1, 2)
     e2 = end.reshape(-1, 2)
     v2 = vel.reshape(-1, 2)
-    # a move of length |v| can only reach a post whose centre is within radius + |v| of its
-    # start (later bounces stay within |v| of it too), and the post nearest the start is the one
-    # nearest of all four
-    gx = np.abs(s2[flat, 0])
-    gx -= post_x
-    gy = np.abs(s2[flat, 1])
-    gy -= post_y
-    gap2 = gx * gx
-    gap2 += gy * gy
-    mx = v2[flat, 0]
-    my = v2[flat, 1]
-    reach2 = np.sqrt(mx * mx + my * my)
-    reach2 += radius + 1e-6
-    reach2 *= reach2
-    near = gap2 < reach2
+    y0 = s2[flat, 1]
+    y1 = e2[flat, 1]
+    lo = np.minimum(y0, y1)
+    hi = np.maximum(y0, y1)
+    near = (hi > post_y - radius) & (lo < post_y + radius)
+    near |= (hi > -post_y - radius) & (lo < -post_y + radius)
     if not _count(near):
         return hit_all
     flat = flat[near]

@@ -135,9 +135,7 @@ class CommPolicy(HybridPolicy):
         super()._build(lr_schedule)
         self.gsn = self.comm_method.make_networks(self)
         if self.gsn is not None:
-            self.gsn.optimizer = self.optimizer_class(  # type: ignore[assignment]
-                self.gsn.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
-            )
+            self.gsn.optimizer = self.make_optimizer(self.gsn, lr_schedule(1))  # type: ignore[assignment]
 
     # ---------------------------------------------------------------------------- helpers --
     def critic_value(self, critic: nn.Module, x: th.Tensor) -> th.Tensor:
@@ -173,11 +171,11 @@ class CommPolicy(HybridPolicy):
         actions = self.assemble_actions(obs, self.actor_outputs(obs)).clamp(-1.0, 1.0)
         return actions.reshape(observation.shape[0], *self.action_space.shape)  # type: ignore[union-attr]
 
-    def set_training_mode(self, mode: bool) -> None:
-        """Train/eval mode of the trained networks (targets stay in eval mode)."""
-        super().set_training_mode(mode)
-        if self.gsn is not None:
-            self.gsn.train(mode)
+    def _trained_submodules(self) -> list[nn.Module]:
+        """The actor, the critics and the GSN (its mode decides whether it updates its reward
+        statistics)."""
+        gsn = [] if self.gsn is None else list(self.gsn.modules())
+        return [*super()._trained_submodules(), *gsn]
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
         data = super()._get_constructor_parameters()

@@ -40,7 +40,6 @@ from stable_baselines3.common.utils import (
     FloatSchedule,
     LinearSchedule,
     obs_as_tensor,
-    polyak_update,
     update_learning_rate,
 )
 from torch.nn import functional as F
@@ -363,6 +362,7 @@ class HybridDDPG(TD3):
         log = self.train_log
         log.add("train/actor_learning_rate", actor_rate)
         policy = self.policy
+        sources, targets = self._soft_update_pairs()
         for _ in range(gradient_steps):
             self._n_updates += 1
             # sample
@@ -407,11 +407,21 @@ class HybridDDPG(TD3):
                 log.add(key, value)
 
             # soft update
-            polyak_update(self.critic.parameters(), self.critic_target.parameters(), self.tau)
-            polyak_update(self.actor.parameters(), self.actor_target.parameters(), self.tau)
+            # soft update, θ' ← θ' + τ (θ − θ'), all tensors at once
+            th._foreach_lerp_(targets, sources, self.tau)
 
         if gradient_steps > 0:  # the agent's own update, without the method's extra networks
             log.add("time/agent_update_ms", 1000.0 * (time.perf_counter() - began), count=gradient_steps)
+
+    def _soft_update_pairs(self) -> tuple[list[th.Tensor], list[th.Tensor]]:
+        """The trained parameters and their targets, listed once per policy."""
+        policy = self.policy
+        pairs = policy.__dict__.get("_soft_update_pairs")
+        if pairs is None:
+            sources = [*policy.critic.parameters(), *policy.actor.parameters()]
+            targets = [*policy.critic_target.parameters(), *policy.actor_target.parameters()]
+            pairs = policy.__dict__["_soft_update_pairs"] = (sources, targets)
+        return pairs
 
     def critic_action_gradients(self, obs: th.Tensor, out: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
         """``dQ/d out`` of the (first) critic at the actor's outputs, and that critic's ``Q``.
@@ -453,11 +463,12 @@ class HybridDDPG(TD3):
         return {}
 
     def _optimize(self, module: th.nn.Module, loss: th.Tensor) -> None:
-        module.optimizer.zero_grad()  # type: ignore[union-attr]
+        optimizer = module.optimizer  # type: ignore[union-attr]
+        optimizer.zero_grad()
         loss.backward()
         if self.max_grad_norm:
-            th.nn.utils.clip_grad_norm_(module.parameters(), self.max_grad_norm)
-        module.optimizer.step()  # type: ignore[union-attr]
+            th.nn.utils.clip_grad_norm_(optimizer.param_groups[0]["params"], self.max_grad_norm, foreach=True)
+        optimizer.step()
 
     # ---------------------------------------------------------------------- save / load --
     def _excluded_save_params(self) -> list[str]:

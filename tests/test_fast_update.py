@@ -1,0 +1,71 @@
+"""The fast update path (fused Adam, one foreach soft update, foreach clipping, cached module
+lists) against a straightforward reference implementation of the same DDPG update."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+import torch as th
+from stable_baselines3.common.env_util import make_vec_env
+from toy_envs import coin_env
+from torch.nn import functional as F
+
+from sb3_comm import CommDDPG
+
+
+def _plain_adam(module: th.nn.Module, fast: th.optim.Optimizer) -> th.optim.Optimizer:
+    """A for-loop Adam over ``module``'s parameters, in the fast optimizer's state."""
+    plain = th.optim.Adam(module.parameters(), lr=1.0, foreach=False, fused=False)
+    plain.load_state_dict(copy.deepcopy(fast.state_dict()))
+    for group in plain.param_groups:
+        group["fused"], group["foreach"] = False, False
+    return plain
+
+
+def _reference_update(model: CommDDPG, ref, data, max_grad_norm: float) -> None:
+    """One DDPG update written out: TD target mixed with the Monte-Carlo return, critic step,
+    actor step on -Q(s, mu(s)), soft updates parameter by parameter."""
+    critic_opt = _plain_adam(ref.critic, model.policy.critic.optimizer)
+    actor_opt = _plain_adam(ref.actor, model.policy.actor.optimizer)
+    obs, actions, next_obs = data.observations, data.actions, data.next_observations
+    with th.no_grad():
+        next_out = ref.actor_outputs(next_obs, target=True).clamp(-1.0, 1.0)
+        target = data.rewards + (1.0 - data.dones) * model.gamma * ref.q_values(next_obs, next_out, target=True)[0]
+        mixed = model.mc_mixing * data.mc_returns + (1.0 - model.mc_mixing) * target
+        target = th.where(data.mc_valid.bool(), mixed, target)
+    critic_loss = F.mse_loss(ref.q_values(obs, actions)[0], target)
+    critic_opt.zero_grad()
+    critic_loss.backward()
+    th.nn.utils.clip_grad_norm_(list(ref.critic.parameters()), max_grad_norm, foreach=False)
+    critic_opt.step()
+    actor_loss = -ref.q_values(obs, ref.actor_outputs(obs))[0].mean()
+    actor_opt.zero_grad()
+    actor_loss.backward()
+    th.nn.utils.clip_grad_norm_(list(ref.actor.parameters()), max_grad_norm, foreach=False)
+    actor_opt.step()
+    with th.no_grad():
+        for net, target_net in ((ref.critic, ref.critic_target), (ref.actor, ref.actor_target)):
+            for p, p_target in zip(net.parameters(), target_net.parameters(), strict=True):
+                p_target.mul_(1.0 - model.tau).add_(p, alpha=model.tau)
+
+
+@pytest.mark.parametrize("method", ["NONE", "RIAL"])
+def test_one_fast_update_equals_the_reference(method: str) -> None:
+    env = make_vec_env(coin_env, n_envs=2, seed=0)
+    model = CommDDPG(
+        method, env, batch_size=16, learning_starts=20, seed=0, tau=0.05, max_grad_norm=0.5,
+        policy_kwargs={"net_arch": [16, 16]},
+    )  # fmt: skip
+    model.learn(60)
+    assert model.policy.critic.optimizer.param_groups[0]["fused"] is True
+    data = model.replay_buffer.sample(16)
+    model.replay_buffer.sample = lambda *args, **kwargs: data  # the same batch for both
+    ref = copy.deepcopy(model.policy)
+    _reference_update(model, ref, data, max_grad_norm=0.5)
+    model.train(gradient_steps=1, batch_size=16)
+    moved = 0
+    for (name, fast), slow in zip(model.policy.state_dict().items(), ref.state_dict().values(), strict=True):
+        th.testing.assert_close(fast, slow, rtol=1e-5, atol=1e-6, msg=lambda m, n=name: f"{n}: {m}")
+        moved += 1
+    assert moved > 8
