@@ -8,8 +8,8 @@ import copy
 import pytest
 import torch as th
 from stable_baselines3.common.env_util import make_vec_env
-from toy_envs import coin_env
 from torch.nn import functional as F
+from toy_envs import coin_env
 
 from sb3_comm import CommDDPG
 
@@ -31,7 +31,9 @@ def _reference_update(model: CommDDPG, ref, data, max_grad_norm: float) -> None:
     obs, actions, next_obs = data.observations, data.actions, data.next_observations
     with th.no_grad():
         next_out = ref.actor_outputs(next_obs, target=True).clamp(-1.0, 1.0)
-        target = data.rewards + (1.0 - data.dones) * model.gamma * ref.q_values(next_obs, next_out, target=True)[0]
+        target = (
+            data.rewards + (1.0 - data.dones) * model.gamma * ref.q_values(next_obs, next_out, target=True)[0]
+        )
         mixed = model.mc_mixing * data.mc_returns + (1.0 - model.mc_mixing) * target
         target = th.where(data.mc_valid.bool(), mixed, target)
     critic_loss = F.mse_loss(ref.q_values(obs, actions)[0], target)
