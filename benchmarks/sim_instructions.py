@@ -5,7 +5,8 @@ code changes. The number of instructions a step executes does not: this script r
 task for ``--short`` and ``--long`` steps under ``valgrind --tool=cachegrind --cache-sim=no`` and
 reports ``(I_long - I_short) / (long - short)`` per step, which cancels start-up and imports.
 Instructions are not time (memory traffic is not counted), but for this numpy code they move
-with it. Needs ``valgrind``.
+with it. Two runs of the same code still differ by 1-2 % (memory layout and alignment change
+from one process to the next); differences below that are not resolved. Needs ``valgrind``.
 
     python benchmarks/sim_instructions.py                       # this checkout
     python benchmarks/sim_instructions.py --code /tmp/old=before # plus an older checkout
@@ -14,6 +15,7 @@ with it. Needs ``valgrind``.
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import shutil
 import subprocess
@@ -45,7 +47,7 @@ def instructions(code: Path, task: str, steps: int, n_games: int) -> int:
     run = subprocess.run(
         ["valgrind", "--tool=cachegrind", "--cache-sim=no", "--cachegrind-out-file=/dev/null",
          sys.executable, "-c", _STEPS, str(code), task, str(steps), str(n_games)],
-        capture_output=True, text=True, check=True,
+        capture_output=True, text=True, check=True, env={**os.environ, "PYTHONHASHSEED": "0"},
     )  # fmt: skip
     match = re.search(r"I\s+refs:\s+([\d,]+)", run.stderr)
     if match is None:

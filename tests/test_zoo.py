@@ -130,3 +130,29 @@ def test_unknown_key_in_yaml_file_is_named(tmp_path: Path, capsys: pytest.Captur
     err = capsys.readouterr().err
     assert "gsn_lr" in err and "accepted keys" in err
     assert not (tmp_path / "logs").exists()
+
+
+def test_zoo_runs_get_the_dense_tensorboard_points(tmp_path: Path) -> None:
+    """rl-zoo3's --log-interval counts environment steps with CommDDPG; its own evaluations are
+    written at their step."""
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    conf = str(CONFIG_DIR / "none.yml")
+    args = ["train", "--env", "GuessMyNumber-v0", "-conf", conf, "-n", "400", "-f", str(tmp_path / "logs")]
+    args += [
+        "-tb",
+        str(tmp_path / "tb"),
+        "--log-interval",
+        "100",
+        "--eval-freq",
+        "100",
+        "--eval-episodes",
+        "2",
+    ]
+    assert main([*args, *TINY]) == 0
+    (events_dir,) = {path.parent for path in (tmp_path / "tb").rglob("events.out.tfevents.*")}
+    events = EventAccumulator(str(events_dir), size_guidance={"scalars": 0})
+    events.Reload()
+    steps = [event.step for event in events.Scalars("rollout/exploration_rate")]
+    assert steps == [100, 200, 300, 400]
+    assert [event.step for event in events.Scalars("eval/mean_reward")] == [100, 200, 300, 400]
