@@ -857,3 +857,12 @@ def test_float32_commands_give_the_float64_result():
     c.direction = c.direction.astype(np.float32).astype(np.float64)
     c32 = Commands(c.kind.astype(np.int32), c.power.astype(np.float32), c.direction.astype(np.float32))
     assert_states_equal(run(s, c32), run(s, c))
+
+
+@pytest.mark.parametrize("bit_generator", [np.random.PCG64, np.random.MT19937])
+def test_uniform_draws_are_generator_random_bit_for_bit(bit_generator) -> None:
+    """The fast uniform draw gives Generator.random's numbers and leaves the same state behind."""
+    fast, slow = np.random.Generator(bit_generator(7)), np.random.Generator(bit_generator(7))
+    for shape in ((3, 12), (1024, 12), (1, 1)):
+        np.testing.assert_array_equal(physics.uniform(fast, shape), slow.random(shape))
+    assert fast.random() == slow.random()

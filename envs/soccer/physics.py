@@ -61,6 +61,7 @@ __all__ = [
     "step",
     "turn_body",
     "turn_moment_effect",
+    "uniform",
     "update_stamina",
     "wrap_degrees",
 ]
@@ -154,6 +155,21 @@ def _relative(ball: np.ndarray, players: np.ndarray) -> np.ndarray:
     out = _spread(ball, players.shape[1])
     out -= players
     return out
+
+
+def uniform(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    """``rng.random(shape)``, bit for bit, and the generator left in the same state.
+
+    For numpy's default bit generator (PCG64) a double is ``(next_uint64 >> 11) * 2**-53``; drawing
+    the raw integers in one call and converting them with two array operations takes a third less
+    time than ``Generator.random``'s per-element loop. Other bit generators use ``rng.random``.
+    """
+    bit_generator = rng.bit_generator
+    if type(bit_generator) is not np.random.PCG64:
+        return rng.random(shape)
+    raw = bit_generator.random_raw(math.prod(shape))
+    raw >>= np.uint64(11)
+    return np.multiply(raw, 2.0**-53).reshape(shape)
 
 
 def wrap_degrees(angle: np.ndarray) -> np.ndarray:
@@ -882,7 +898,7 @@ def step(
     power = np.asarray(commands.power, dtype=np.float64)  # actions often arrive as float32
     direction = np.asarray(commands.direction, dtype=np.float64)
     noisy = p.player_rand > 0.0 or p.ball_rand > 0.0 or p.kick_rand > 0.0
-    u = rng.random((n, 5 * n_players + 2)) if noisy else None
+    u = uniform(rng, (n, 5 * n_players + 2)) if noisy else None
 
     # --- dash ---
     player_accel = None
