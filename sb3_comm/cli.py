@@ -162,6 +162,9 @@ _RUN_FLAGS = {
 """Flags that define a run: a resume takes them from the run folder instead."""
 
 
+_ABLATION_WORDS = {"none": "with messages intact", "zero": "zeroed", "shuffle": "shuffled"}
+
+
 def _train(args: argparse.Namespace) -> int:
     from sb3_comm.training import TrainingInterrupted
 
@@ -171,8 +174,12 @@ def _train(args: argparse.Namespace) -> int:
         print(f"sb3-comm: interrupted by {stopped}", file=sys.stderr)
         return stopped.exit_code
     print(
-        f"Done in {result.wall_seconds:.0f} s. Final evaluation ({result.eval['episodes']} episodes): "
-        f"mean return {result.curve[-1]['mean_return']:.4f}"
+        f"Done in {result.wall_seconds:.0f} s. Last periodic evaluation: mean return "
+        f"{result.curve[-1]['mean_return']:.4f}; final evaluation ({result.eval['episodes']} other games): "
+        + ", ".join(
+            f"{summary['mean_return']:.4f} {_ABLATION_WORDS.get(name, name)}"
+            for name, summary in result.final.items()
+        )
     )
     print(f"Model:       {run_dir / 'model.zip'}")
     print(f"Curve:       {run_dir / 'evaluations.json'}")
