@@ -65,14 +65,14 @@ def logging_overhead(args: argparse.Namespace, common: dict) -> None:
     """What TensorBoard logging costs: the share of training time spent writing points and
     gathering the values they average, at the packaged default interval, plus an on/off timing."""
     from sb3_comm.config import RunConfig
-    from sb3_comm.hybrid_ddpg.hybrid_ddpg import _log_interval
+    from sb3_comm.hybrid_ddpg.hybrid_ddpg import default_log_interval
     from sb3_comm.tensorboard import event_logger
 
     results: dict[str, dict[str, float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for method in METHODS:
             config = RunConfig.load(method, args.env)
-            interval = _log_interval(None, config.n_timesteps, config.n_envs)
+            interval = default_log_interval(config.n_timesteps, config.n_envs)
             if args.log_interval is not None:
                 interval = args.log_interval
             rates: dict[bool, list[float]] = {True: [], False: []}

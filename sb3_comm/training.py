@@ -71,7 +71,7 @@ from sb3_comm.common.files import atomic_path, write_text
 from sb3_comm.common.validation import Range
 from sb3_comm.config import RunConfig
 from sb3_comm.evaluation import ABLATIONS, evaluate_team
-from sb3_comm.hybrid_ddpg.hybrid_ddpg import LOG_POINTS
+from sb3_comm.hybrid_ddpg.hybrid_ddpg import default_log_interval
 from sb3_comm.registration import make_comm_vec_env
 from sb3_comm.results import RunResult, read_json, to_jsonable, write_json
 from sb3_comm.tensorboard import event_logger, record_hparams, write_projector
@@ -104,6 +104,7 @@ class EvalSettings:
     :param analysis_episodes: games recorded for the communication analysis (0: none).
     :param analysis_seed: seed of those games.
     :param target_return: the return that counts as solved (time and steps to it are recorded).
+    :param stop_at_target: end training at the first evaluation that reaches ``target_return``.
     :param video_every: a rendered evaluation episode in TensorBoard every this many evaluations
         (0: none).
     :param projector_episodes: games whose messages go to TensorBoard's Embedding Projector at
@@ -118,6 +119,7 @@ class EvalSettings:
     analysis_episodes: int = 0
     analysis_seed: int = 0
     target_return: float | None = None
+    stop_at_target: bool = False
     video_every: int = 0
     projector_episodes: int = 20
 
@@ -352,13 +354,10 @@ def _resume_model(
     return model
 
 
-def _remaining_interval(log_interval: int | None, config: RunConfig, done: int) -> int | None:
+def _remaining_interval(log_interval: int | None, config: RunConfig) -> int:
     """The logging interval of a (resumed) run: the given one, or the default of the whole budget
     (so that a resumed run keeps the grid of points it started on)."""
-    if log_interval is not None:
-        return log_interval
-    per_point = max(config.n_timesteps // LOG_POINTS, 1)
-    return max(config.n_envs, per_point // config.n_envs * config.n_envs)
+    return default_log_interval(config.n_timesteps, config.n_envs) if log_interval is None else log_interval
 
 
 def _finish_tensorboard(
@@ -571,6 +570,7 @@ def _train(
         eval_freq=settings.freq,
         n_episodes=settings.episodes,
         target_return=settings.target_return,
+        stop_at_target=settings.stop_at_target,
         seed=settings.curve_seed,
         log_path=run_dir / "evaluations.json",
         history=history,
@@ -598,7 +598,7 @@ def _train(
                 remaining,
                 callback=CallbackList([stopper, *run_callbacks, *callbacks]),
                 progress_bar=progress_bar,
-                log_interval=_remaining_interval(log_interval, config, model.num_timesteps),
+                log_interval=_remaining_interval(log_interval, config),
                 reset_num_timesteps=not resume,
             )
         else:  # the checkpoint holds the whole budget: the run died in its final evaluation

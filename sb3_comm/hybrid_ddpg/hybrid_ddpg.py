@@ -51,7 +51,14 @@ from sb3_comm.common.train_log import TrainLog
 from sb3_comm.common.validation import HYPERPARAMETERS, Range, check_hyperparameters
 from sb3_comm.hybrid_ddpg.policies import HybridPolicy
 
-__all__ = ["LOG_POINTS", "NOT_HYPERPARAMETERS", "WEIGHTS_FORMAT", "HybridDDPG", "check_schedule"]
+__all__ = [
+    "LOG_POINTS",
+    "NOT_HYPERPARAMETERS",
+    "WEIGHTS_FORMAT",
+    "HybridDDPG",
+    "check_schedule",
+    "default_log_interval",
+]
 
 LOG_POINTS = 200
 """Logged training points per ``learn`` call when no ``log_interval`` is given."""
@@ -406,7 +413,6 @@ class HybridDDPG(TD3):
             for key, value in self._actor_step_stats(data, out, grad).items():
                 log.add(key, value)
 
-            # soft update
             # soft update, θ' ← θ' + τ (θ − θ'), all tensors at once
             th._foreach_lerp_(targets, sources, self.tau)
 
@@ -699,12 +705,17 @@ class HybridDDPG(TD3):
         )
 
 
+def default_log_interval(total_timesteps: int, n_envs: int) -> int:
+    """About :data:`LOG_POINTS` logged points over ``total_timesteps``, on the grid of ``n_envs``
+    environment steps (one vectorised step)."""
+    per_point = max(total_timesteps // LOG_POINTS, 1)
+    return max(n_envs, per_point // n_envs * n_envs)
+
+
 def _log_interval(log_interval: int | None, total_timesteps: int, n_envs: int) -> int:
-    """Environment steps between logged points: the given number, or about ``LOG_POINTS`` per
-    run on the grid of ``n_envs`` steps (one vectorised step)."""
+    """Environment steps between logged points: the given number, or the default."""
     if log_interval is None:
-        per_point = max(total_timesteps // LOG_POINTS, 1)
-        return max(n_envs, per_point // n_envs * n_envs)
+        return default_log_interval(total_timesteps, n_envs)
     if isinstance(log_interval, bool) or not isinstance(log_interval, (int, np.integer)) or log_interval < 0:
         raise ValueError(
             f"log_interval must be a whole number of environment steps ≥ 0 (0: no training points) "

@@ -1,0 +1,120 @@
+"""Time to solve: wall-clock training seconds (and steps) until a method first reaches
+``--target-fraction`` × the oracle's return, seed after seed, one run at a time.
+
+Each run trains with the packaged configuration (``zoo_configs/``) through
+:func:`sb3_comm.training.train_run`, evaluates the deterministic team on 100 games every
+``--eval-freq`` steps (evaluation time is not training time), and stops at the first evaluation
+that reaches the target, or after ``--time-budget`` seconds of wall-clock or the configuration's
+``n_timesteps``. Runs go one after the other, with torch's default threads, so that each has the
+machine to itself; the load average before and after each run is recorded.
+
+    python benchmarks/time_to_solve.py --env BlindSoccer-v0 --method GSN --seeds 0 1 2 3 4
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import write_results
+
+from envs.registry import task_ids
+from sb3_comm.analysis.references import REFERENCE_SEED, reference_returns
+from sb3_comm.callbacks import TimeBudgetCallback
+from sb3_comm.config import RunConfig
+from sb3_comm.results import write_json
+from sb3_comm.training import EvalSettings, train_run
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--env", default="BlindSoccer-v0", choices=task_ids())
+    parser.add_argument("--method", default="GSN")
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4])
+    parser.add_argument("--target-fraction", type=float, default=0.9)
+    parser.add_argument("--eval-freq", type=int, default=10_000)
+    parser.add_argument("--time-budget", type=float, default=900.0, help="wall-clock seconds per run")
+    parser.add_argument("--save-dir", default="runs/time_to_solve")
+    parser.add_argument("--name", default=None)
+    args = parser.parse_args()
+
+    references = reference_returns(args.env, n_episodes=1000, seed=REFERENCE_SEED)
+    assert references is not None
+    target = args.target_fraction * references["oracle"]
+    name = args.name or f"time_to_solve_{args.env.split('-')[0].lower()}_{args.method.lower()}"
+    runs: list[dict[str, Any]] = []
+    for seed in args.seeds:
+        load_before = os.getloadavg()[0]
+        config = RunConfig.load(args.method, args.env, seed=seed)
+        settings = EvalSettings(
+            freq=args.eval_freq, target_return=target, stop_at_target=True, projector_episodes=0
+        )
+        result = train_run(
+            config,
+            Path(args.save_dir) / f"{args.env}_{args.method}_seed{seed}",
+            evaluation=settings,
+            save_freq=0,
+            callbacks=[TimeBudgetCallback(args.time_budget)],
+        )
+        run = {
+            "seed": seed,
+            "solved": result.steps_to_target is not None,
+            "seconds_to_target": result.time_to_target_seconds,
+            "steps_to_target": result.steps_to_target,
+            "train_seconds": result.train_seconds,
+            "timesteps": result.timesteps,
+            "final_return": result.final_return,
+            "load_before": load_before,
+            "load_after": os.getloadavg()[0],
+        }
+        runs.append(run)
+        print(run, flush=True)
+        # written after every run, so that a session that ends keeps the seeds done
+        write_json(Path(__file__).resolve().parent / "results" / f"{name}.partial.json", runs)
+    solved = [r["seconds_to_target"] for r in runs if r["solved"]]
+    # an unsolved run counts as +inf for the median: the median is only finite if most solved
+    times = sorted(solved) + [float("inf")] * (len(runs) - len(solved))
+    median = statistics.median(times)
+    rows = [
+        "| seed | solved | seconds to target | steps to target | training seconds | final return "
+        "| load before / after |"
+    ]
+    rows.append("|---:|---|---:|---:|---:|---:|---|")
+    for r in runs:
+        seconds = f"{r['seconds_to_target']:.0f}" if r["solved"] else "—"
+        steps = f"{r['steps_to_target']:,}" if r["solved"] else "—"
+        rows.append(
+            f"| {r['seed']} | {'yes' if r['solved'] else 'no'} | {seconds} | {steps} "
+            f"| {r['train_seconds']:.0f} | "
+            f"{r['final_return']:.4f} | {r['load_before']:.2f} / {r['load_after']:.2f} |"
+        )
+    notes = (
+        f"\n\n{args.method} on `{args.env}`, packaged configuration; target {args.target_fraction} × oracle "
+        f"{references['oracle']:.4f} = {target:.4f} on the mean return of 100 evaluation games every "
+        f"{args.eval_freq:,} steps; a run stops there, or after {args.time_budget:.0f} s of wall-clock. "
+        f"Median seconds to target over the {len(runs)} seeds (an unsolved seed counts as never): "
+        f"{'never' if median == float('inf') else f'{median:.0f} s'}. Runs one at a time."
+    )
+    write_results(
+        name,
+        {
+            "args": vars(args),
+            "oracle": references["oracle"],
+            "target": target,
+            "runs": runs,
+            "median_seconds": median,
+        },
+        "\n".join(rows) + notes,
+        title=f"Time to solve: {args.method} on {args.env}",
+    )
+
+
+if __name__ == "__main__":
+    main()
