@@ -75,6 +75,8 @@ def test_cli_train_then_evaluate(tmp_path, capsys) -> None:
     assert len(curve) == 2 and all("mean_return" in point for point in curve)
     out = capsys.readouterr().out
     assert "tensorboard --logdir" in out and str(run) in out
+    # the last periodic evaluation and the final one (other games, with the ablations) apart
+    assert "Last periodic evaluation" in out and "with messages intact" in out and "zeroed" in out
 
     # A second run never overwrites the first.
     assert main(args) == 0
@@ -84,6 +86,11 @@ def test_cli_train_then_evaluate(tmp_path, capsys) -> None:
     assert main(["evaluate", str(run / "model.zip"), "--episodes", "2", "--ablation", "zero"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["env"] == "GuessMyNumber-v0" and report["method"] == "GSN" and report["n_episodes"] == 2
+
+    projector = tmp_path / "projector"
+    assert main(["evaluate", str(run / "model.zip"), "--episodes", "2", "--projector", str(projector)]) == 0
+    assert "PROJECTOR tab" in capsys.readouterr().out
+    assert (projector / "projector_config.pbtxt").is_file()
 
 
 def test_cli_rejects_unknown_override_before_training(tmp_path, capsys) -> None:

@@ -114,3 +114,14 @@ def test_build_model_takes_plain_values_from_the_config() -> None:
     model = build_model(config, device="cpu")
     assert model.method == "GSN" and model.n_envs == 2
     assert callable(model.actor_learning_rate) and model.actor_learning_rate(1.0) == pytest.approx(1e-4)
+
+
+def test_a_run_can_stop_at_its_target(tmp_path: Path) -> None:
+    """EvalSettings.stop_at_target ends training at the first evaluation that reaches the target."""
+    config = RunConfig.load("NONE", "GuessMyNumber-v0", overrides={**TINY, "n_timesteps": 400})
+    settings = EvalSettings(
+        freq=100, episodes=2, target_return=-1e9, stop_at_target=True, projector_episodes=0
+    )
+    result = train_run(config, tmp_path / "run", evaluation=settings, save_freq=0)
+    assert result.steps_to_target == 100 and result.timesteps == 100
+    assert [point["timesteps"] for point in result.curve] == [100]
