@@ -23,7 +23,7 @@ from stable_baselines3.common.utils import FloatSchedule
 from torch import nn
 from torch.nn import functional as F
 
-from sb3_comm.common.networks import AgentMLPs
+from sb3_comm.common.networks import AgentMLPs, gradient_step
 
 __all__ = ["GSNTrainingCallback", "GroundedSemanticNetwork"]
 
@@ -193,11 +193,7 @@ class GSNTrainingCallback(BaseCallback):
         for _ in range(n_updates):
             data = replay_buffer.sample(self.batch_size)
             loss = gsn.loss(data.observations, data.actions, data.rewards)
-            gsn.optimizer.zero_grad()  # type: ignore[union-attr]
-            loss.backward()
-            if self.max_grad_norm:
-                th.nn.utils.clip_grad_norm_(gsn.parameters(), self.max_grad_norm)
-            gsn.optimizer.step()  # type: ignore[union-attr]
+            gradient_step(gsn.optimizer, loss, self.max_grad_norm)  # type: ignore[arg-type]
             log.add("gsn/loss", loss.detach())
             # the prediction error in reward units (the loss is standardised when normalising)
             scale = gsn.reward_std.detach() if gsn.normalize_rewards else 1.0

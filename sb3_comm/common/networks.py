@@ -1,11 +1,12 @@
-"""Small network pieces shared by the policies: per-agent MLPs and inverting gradients."""
+"""Small network pieces shared by the policies: per-agent MLPs, inverting gradients, one optimizer
+step."""
 
 from __future__ import annotations
 
 import torch as th
 from torch import nn
 
-__all__ = ["AgentMLPs", "inverting_gradients", "mlp"]
+__all__ = ["AgentMLPs", "gradient_step", "inverting_gradients", "mlp"]
 
 
 def mlp(in_dim: int, out_dim: int, net_arch: list[int], activation_fn: type[nn.Module]) -> nn.Sequential:
@@ -69,3 +70,14 @@ def inverting_gradients(grad: th.Tensor, value: th.Tensor, low: float = -1.0, hi
     """
     width = high - low
     return th.where(grad > 0, grad * (high - value) / width, grad * (value - low) / width)
+
+
+def gradient_step(optimizer: th.optim.Optimizer, loss: th.Tensor, max_grad_norm: float | None) -> None:
+    """One step of ``optimizer`` on ``loss``: zero the gradients, backpropagate, clip their global
+    norm to ``max_grad_norm`` (None or 0: no clipping; all tensors at once), step."""
+    optimizer.zero_grad()
+    loss.backward()
+    if max_grad_norm:
+        params = [p for group in optimizer.param_groups for p in group["params"]]
+        th.nn.utils.clip_grad_norm_(params, max_grad_norm, foreach=True)
+    optimizer.step()

@@ -46,7 +46,7 @@ from torch.nn import functional as F
 
 from sb3_comm.common.buffers import MonteCarloReplayBuffer, MonteCarloReplayBufferSamples
 from sb3_comm.common.layout import HybridActionLayout
-from sb3_comm.common.networks import inverting_gradients
+from sb3_comm.common.networks import gradient_step, inverting_gradients
 from sb3_comm.common.train_log import TrainLog
 from sb3_comm.common.validation import HYPERPARAMETERS, Range, check_hyperparameters
 from sb3_comm.hybrid_ddpg.policies import HybridPolicy
@@ -469,12 +469,7 @@ class HybridDDPG(TD3):
         return {}
 
     def _optimize(self, module: th.nn.Module, loss: th.Tensor) -> None:
-        optimizer = module.optimizer  # type: ignore[union-attr]
-        optimizer.zero_grad()
-        loss.backward()
-        if self.max_grad_norm:
-            th.nn.utils.clip_grad_norm_(optimizer.param_groups[0]["params"], self.max_grad_norm, foreach=True)
-        optimizer.step()
+        gradient_step(module.optimizer, loss, self.max_grad_norm)  # type: ignore[arg-type]
 
     # ---------------------------------------------------------------------- save / load --
     def _excluded_save_params(self) -> list[str]:
