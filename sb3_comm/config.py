@@ -2,7 +2,8 @@
 
 A hyperparameter file maps environment ids to CommDDPG arguments plus rl-zoo3's ``n_envs``,
 ``n_timesteps`` and ``policy`` (the method). The packaged files live in the repository's
-``zoo_configs/`` folder, one per method (``gsn.yml``, ``rial.yml``, ``tcg.yml``, ``none.yml``).
+``zoo_configs/`` folder, one per method (``gsn.yml``, ``rial.yml``, ``tcg.yml``, ``none.yml``,
+``gsn-max.yml``).
 
 :class:`RunConfig` is what one training run is made of: method, task, seed, parallel games,
 budget and the algorithm's hyperparameters. It is parsed, coerced and validated once, from a
@@ -137,7 +138,7 @@ def _whole(value: Any, key: str, where: str) -> int:
 class RunConfig:
     """One training run's configuration, checked (see the module docstring).
 
-    :param method: communication method (``"GSN"``, ``"TCG"``, ``"RIAL"``, ``"NONE"``).
+    :param method: communication method (``"GSN"``, ``"TCG"``, ``"RIAL"``, ``"NONE"``, ``"GSN-MAX"``).
     :param task: environment id.
     :param n_envs: parallel games.
     :param n_timesteps: environment steps to train for.

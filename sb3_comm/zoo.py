@@ -10,7 +10,7 @@
 ``hybrid_ddpg`` to rl-zoo3's ``ALGOS`` together with a hyperparameter sampler for Optuna, then the
 command is rl-zoo3's own ``train``, ``enjoy`` or ``record_video``. Two additions before that:
 
-* ``--method NONE|RIAL|TCG|GSN`` picks the packaged hyperparameter file ``zoo_configs/<method>.yml``
+* ``--method NONE|RIAL|TCG|GSN|GSN-MAX`` picks the packaged hyperparameter file ``zoo_configs/<method>.yml``
   when no ``-conf`` is given (``--algo`` defaults to ``commddpg``);
 * for ``train``, the file's entry for ``--env`` and any ``-params`` are checked first: an unknown
   key, a method that does not exist or a file without the env fail with a message naming them,

@@ -24,6 +24,16 @@ def test_packaged_configs_load(method: str, env_id: str) -> None:
     assert (settings["gamma"], settings["mc_mixing"]) == expected
 
 
+def test_gsn_max_has_one_configuration_for_both_tasks() -> None:
+    """GSN-MAX's tasks differ only in gamma and the budget (issue: one configuration solves both)."""
+    soccer = RunConfig.load("GSN-MAX", "BlindSoccer-v0")
+    number = RunConfig.load("GSN-MAX", "GuessMyNumber-v0")
+    differ = {k for k in soccer.hyperparams.keys() | number.hyperparams.keys()
+              if soccer.hyperparams.get(k) != number.hyperparams.get(k)}  # fmt: skip
+    assert differ == {"gamma"}
+    assert soccer.hyperparams["gsn_max_weight"] == 0.5
+
+
 def test_config_errors_name_the_problem(tmp_path) -> None:
     bad_key = tmp_path / "bad.yml"
     bad_key.write_text("BlindSoccer-v0:\n  policy: GSN\n  learning_rat: 0.001\n")

@@ -77,8 +77,8 @@ def test_paper_experiment_is_packaged_and_resolves() -> None:
     assert "paper" in packaged_experiments()
     full = load_experiment("paper")
     runs = full.runs()
-    assert len(runs) == 4 * 2 * 3
-    assert {r.method for r in runs} == {"NONE", "RIAL", "TCG", "GSN"}
+    assert len(runs) == 5 * 2 * 3
+    assert {r.method for r in runs} == {"NONE", "RIAL", "TCG", "GSN", "GSN-MAX"}
     assert {r.task for r in runs} == {"BlindSoccer-v0", "GuessMyNumber-v0"}
     assert {r.seed for r in runs} == {0, 1, 2}
     for run in runs:  # budgets from the packaged zoo configs, 100-game evaluations every 50k steps
@@ -88,7 +88,7 @@ def test_paper_experiment_is_packaged_and_resolves() -> None:
     quick = load_experiment("paper", quick=True)
     assert quick.is_quick and not full.is_quick
     quick_runs = quick.runs()
-    assert len(quick_runs) == 8 and {r.seed for r in quick_runs} == {0}
+    assert len(quick_runs) == 10 and {r.seed for r in quick_runs} == {0}
     assert {r.task: r.timesteps for r in quick_runs} == {"BlindSoccer-v0": 30_000, "GuessMyNumber-v0": 20_000}
     assert {r.eval_freq for r in quick_runs} == {10_000}
     # Quick runs never reuse (or overwrite) the folders of full runs.
@@ -96,7 +96,10 @@ def test_paper_experiment_is_packaged_and_resolves() -> None:
 
 
 BAD_EXPERIMENTS = [
-    ({"methods": ["GSN", "DIAL"]}, r"unknown method 'DIAL'; accepted: \['GSN', 'NONE', 'RIAL', 'TCG'\]"),
+    (
+        {"methods": ["GSN", "DIAL"]},
+        r"unknown method 'DIAL'; accepted: \['GSN', 'GSN-MAX', 'NONE', 'RIAL', 'TCG'\]",
+    ),
     ({"tasks": ["BlindSoccer-v1"]}, r"unknown task 'BlindSoccer-v1'; accepted: \['BlindSoccer-v0'"),
     ({"n_seeds": 3}, r"unknown key\(s\) \['n_seeds'\]; accepted: \['name', 'description', 'methods'"),
     (
@@ -141,7 +144,9 @@ def test_malformed_files(tmp_path: Path) -> None:
     listing.write_text("- GSN\n- NONE\n")
     with pytest.raises(ExperimentSpecError, match=r"must be a mapping of keys \['name'"):
         load_experiment(listing)
-    with pytest.raises(FileNotFoundError, match=r"No experiment file 'papr'.*\(paper\)"):
+    with pytest.raises(
+        FileNotFoundError, match=r"No experiment file 'papr'.*\(gsn_max, gsn_max_ablation, paper\)"
+    ):
         load_experiment("papr")
     with pytest.raises(ExperimentSpecError, match=r"missing key 'seeds'"):
         parse_experiment({"methods": ["GSN"], "tasks": ["BlindSoccer-v0"]})

@@ -24,10 +24,13 @@ from typing import Any
 import numpy as np
 
 from sb3_comm.analysis.markdown import fmt, interval_text
+from sb3_comm.comm_ddpg.methods import PAPER_METHODS
 
 __all__ = [
+    "BEYOND_CLAIMS",
     "MIN_SEEDS",
     "PAPER_CLAIMS",
+    "PAPER_METHODS",
     "SOLVED_FRACTION",
     "Claim",
     "Evidence",
@@ -36,6 +39,7 @@ __all__ = [
     "only_solver",
     "require_seeds",
     "solves",
+    "solves_every_task",
     "zeroing_changes_nothing",
     "zeroing_lowers_return",
 ]
@@ -171,7 +175,10 @@ def _only_solver(task: str, winner: str, winner_claim: str, evidence: Evidence) 
     measured_rows = {
         m: row["fraction_of_oracle"]
         for m, row in evidence.finals.get(task, {}).items()
-        if m not in (winner, "NONE") and "fraction_of_oracle" in row and row["fraction_of_oracle"]["n_runs"]
+        if m in PAPER_METHODS
+        and m not in (winner, "NONE")
+        and "fraction_of_oracle" in row
+        and row["fraction_of_oracle"]["n_runs"]
     }
     others = {m: est["mean"]["point"] for m, est in measured_rows.items()}
     if not others:
@@ -190,14 +197,15 @@ def _only_solver(task: str, winner: str, winner_claim: str, evidence: Evidence) 
 
 
 def only_solver(cid: str, task: str, winner: str, winner_claim: str, paper: str) -> Claim:
-    """Claim that only ``winner`` solves ``task``: every other measured method (NONE aside) stays
-    below :data:`SOLVED_FRACTION` of the oracle, and ``winner_claim`` (that ``winner`` solves it,
+    """Claim that only ``winner`` solves ``task``: every other measured method of the paper
+    (:data:`PAPER_METHODS`, NONE aside) stays below :data:`SOLVED_FRACTION` of the oracle, and
+    ``winner_claim`` (that ``winner`` solves it,
     judged before) is reproduced."""
     return Claim(
         id=cid,
         task=task,
-        statement=f"{task}: only {winner} solves it; the other methods stay below {SOLVED_FRACTION} "
-        "of the oracle",
+        statement=f"{task}: only {winner} solves it; the paper's other methods stay below "
+        f"{SOLVED_FRACTION} of the oracle",
         paper=paper,
         rule=f"reproduced: {winner} solves it and every other measured method's mean fraction < "
         f"{SOLVED_FRACTION}; partly: the others stay below but {winner} does not reach it; not: another "
@@ -269,6 +277,54 @@ def messages_predict_next_action(task: str, method: str, direction: str, evidenc
     }
 
 
+def _solves_every_task(tasks: Sequence[str], method: str, evidence: Evidence) -> Measurement:
+    per_task, seeds, verdicts = [], [], []
+    for task in tasks:
+        row = evidence.row(task, method)
+        if not row or "fraction_of_oracle" not in row or row["fraction_of_oracle"]["n_runs"] == 0:
+            per_task.append(f"{task}: no runs")
+            verdicts.append("not measured")
+            continue
+        est = row["fraction_of_oracle"]
+        values = [v for v in est["per_seed"] if math.isfinite(v)]
+        mean, worst = est["mean"]["point"], min(values)
+        seeds.append(len(values))
+        below = sum(v < SOLVED_FRACTION for v in values)
+        per_task.append(
+            f"{task}: {interval_text(est)}, worst seed {fmt(worst)}, {below} of {len(values)} seeds below"
+        )
+        verdicts.append("reproduced" if below == 0 else ("partly" if mean >= SOLVED_FRACTION else "not"))
+    if "not measured" in verdicts:
+        verdict = "not measured"
+    elif all(v == "reproduced" for v in verdicts):
+        verdict = "reproduced"
+    elif any(v == "reproduced" or v == "partly" for v in verdicts):
+        verdict = "partly"
+    else:
+        verdict = "not"
+    out: Measurement = {"measured": "; ".join(per_task), "verdict": verdict}
+    if seeds:
+        out["n_seeds"] = min(seeds)
+    return out
+
+
+def solves_every_task(cid: str, tasks: Sequence[str], method: str, paper: str) -> Claim:
+    """Claim that ``method`` solves every one of ``tasks``: on each, every seed's final return
+    reaches :data:`SOLVED_FRACTION` of the oracle's (reproduced); partly when the mean does on
+    some task but a seed falls short, or only some tasks are solved; not otherwise."""
+    return Claim(
+        id=cid,
+        task=" + ".join(tasks),
+        statement=f"{method} solves {' and '.join(tasks)}: every seed >= {SOLVED_FRACTION} of the oracle "
+        "on each",
+        paper=paper,
+        rule=f"holds (reproduced): on every task every seed's fraction of the oracle >= {SOLVED_FRACTION}; "
+        f"partly: a task's mean >= {SOLVED_FRACTION} with a seed below, or only some tasks solved; "
+        "not: no task solved",
+        evaluate=partial(_solves_every_task, tuple(tasks), method),
+    )
+
+
 # ---------------------------------------------------------------------------------- claims --
 PAPER_CLAIMS: tuple[Claim, ...] = (
     solves("C1", BLIND_SOCCER, "GSN", paper="GSN solves Blind Soccer (Figure 2; maximum about 0.6)"),
@@ -316,3 +372,15 @@ PAPER_CLAIMS: tuple[Claim, ...] = (
     ),
 )
 """The claims of Hausknecht & Stone (2016), C1-C7, in report order."""
+
+
+BEYOND_CLAIMS: tuple[Claim, ...] = (
+    solves_every_task(
+        "B1",
+        (BLIND_SOCCER, GUESS_MY_NUMBER),
+        "GSN-MAX",
+        paper="future work (§8): no method of the paper solves both tasks (GSN only Blind Soccer, TCG only "
+        "Guess My Number)",
+    ),
+)
+"""Claims beyond the paper, judged in the report's "Beyond the paper" section."""

@@ -145,8 +145,10 @@ def report_page(
     figures: list[Path],
     runs: list[dict[str, Any]],
     errors: list[str],
+    beyond: list[dict[str, Any]] | None = None,
 ) -> str:
-    """``report.md``: provenance, claims, final returns, communication, figures, runs, errors.
+    """``report.md``: provenance, claims (the paper's, then those beyond it), final returns,
+    communication, figures, runs, errors.
 
     :param name: the experiment folder's name (the title).
     :param figures: the PNG files, relative to the report folder.
@@ -159,6 +161,7 @@ def report_page(
         "## Claims of the paper",
         "",
         *claims_md(claims),
+        *(["## Beyond the paper", "", *claims_md(beyond)] if beyond else []),
         "## Final returns",
         "",
         *final_returns_md(finals, references),

@@ -24,7 +24,13 @@ __all__ = [
     "tsne_embedding",
 ]
 
-METHOD_COLORS = {"GSN": "tab:blue", "TCG": "tab:orange", "RIAL": "tab:green", "NONE": "tab:gray"}
+METHOD_COLORS = {
+    "GSN": "tab:blue",
+    "TCG": "tab:orange",
+    "RIAL": "tab:green",
+    "NONE": "tab:gray",
+    "GSN-MAX": "tab:purple",
+}
 """One colour per method in every figure."""
 
 

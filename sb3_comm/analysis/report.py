@@ -5,7 +5,7 @@
 ``out_dir`` (default ``experiment_dir/report/``)::
 
     report.json, report.md            everything below in one file each
-    tables/{final_returns,communication,claims,runs}.{json,md}
+    tables/{final_returns,communication,claims,beyond,runs}.{json,md}
     figures/curves_<task>.{png,svg}   learning curves, mean and 95% interval over seeds (Figs. 2, 4)
     figures/ablation_<task>.{png,svg} returns with messages intact, zeroed, shuffled
     figures/tsne_<task>_<method>.{png,svg}  the sender's messages coloured by the receiver's next
@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from sb3_comm.analysis import markdown
-from sb3_comm.analysis.claims import MIN_SEEDS, SOLVED_FRACTION, Claim, judge_claims
+from sb3_comm.analysis.claims import BEYOND_CLAIMS, MIN_SEEDS, SOLVED_FRACTION, Claim, judge_claims
 from sb3_comm.analysis.metrics import linear_probe
 from sb3_comm.analysis.plots import plot_ablation, plot_learning_curves, plot_tsne
 from sb3_comm.analysis.references import cached_references, reference_returns
@@ -146,6 +146,7 @@ def make_report(
     tsne: bool = True,
     min_seeds: int = MIN_SEEDS,
     claims: Sequence[Claim] | None = None,
+    beyond: Sequence[Claim] = BEYOND_CLAIMS,
 ) -> dict[str, Any]:
     """Write the report of an experiment and return it as a dict (the content of ``report.json``).
 
@@ -161,8 +162,12 @@ def make_report(
         claim is marked ``partly``.
     :param claims: the claims to judge (default
         :data:`~sb3_comm.analysis.claims.PAPER_CLAIMS`).
+    :param beyond: the claims beyond the paper (default
+        :data:`~sb3_comm.analysis.claims.BEYOND_CLAIMS`: GSN-MAX solves both tasks), judged in
+        their own section; shown only when one of their methods has runs.
     :return: ``runs`` (every run, used or not, with reasons), ``skipped``, ``references``,
-        ``final_returns``, ``communication``, ``tsne``, ``claims``, ``figures`` and ``files``.
+        ``final_returns``, ``communication``, ``tsne``, ``claims``, ``beyond``, ``figures`` and
+        ``files``.
     """
     root = Path(experiment_dir).resolve()
     out = Path(out_dir) if out_dir is not None else root / "report"
@@ -192,6 +197,9 @@ def make_report(
                     figure_files[f"tsne_{task}_{method}"] = entry["files"]
 
     judged = judge_claims(finals, comm, min_seeds, claims)
+    beyond_judged = [
+        c for c in judge_claims(finals, comm, min_seeds, beyond) if c["verdict"] != "not measured"
+    ]
     skipped = [{"dir": r["dir"], "reason": r["reason"]} for r in runs if not r["used"]]
     incomplete = [{"dir": r["dir"], "issues": r["issues"]} for r in runs if r["used"] and r["issues"]]
     run_rows = [{k: v for k, v in r.items() if k != "result"} for r in runs]
@@ -207,6 +215,7 @@ def make_report(
         "communication": comm,
         "tsne": tsne_out,
         "claims": judged,
+        "beyond": beyond_judged,
         "figures": {k: [str(p) for p in v] for k, v in figure_files.items()},
         "errors": errors,
     }
@@ -224,11 +233,15 @@ def make_report(
         _write(tables / "communication.md", page("Communication metrics", markdown.communication_md(comm))),
         _write(tables / "claims.json", judged),
         _write(tables / "claims.md", page("Claims of the paper", markdown.claims_md(judged))),
+        _write(tables / "beyond.json", beyond_judged),
+        _write(tables / "beyond.md", page("Beyond the paper", markdown.claims_md(beyond_judged))),
         _write(tables / "runs.json", {"runs": run_rows, "skipped": skipped, "incomplete": incomplete}),
         _write(tables / "runs.md", page("Runs", markdown.runs_md(runs))),
         _write(
             out / "report.md",
-            markdown.report_page(root.name, made, judged, finals, references, comm, pngs, runs, errors),
+            markdown.report_page(
+                root.name, made, judged, finals, references, comm, pngs, runs, errors, beyond_judged
+            ),
         ),
     ]
     report["files"] = [str(p) for p in files] + [str(out / "report.json")]

@@ -1,4 +1,4 @@
-"""CommDDPG: hybrid-action DDPG with NONE, RIAL, TCG and GSN communication.
+"""CommDDPG: hybrid-action DDPG with NONE, RIAL, TCG, GSN and GSN-MAX communication.
 
 ``comm_ddpg.py`` holds the algorithm (a :class:`~sb3_comm.HybridDDPG` subclass), ``methods.py``
 one object per communication method, ``policies.py`` the networks, ``gsn.py`` the grounded
@@ -10,7 +10,7 @@ from sb3_comm.comm_ddpg.buffers import JointReplayBuffer
 from sb3_comm.comm_ddpg.comm_ddpg import CommDDPG
 from sb3_comm.comm_ddpg.gsn import GroundedSemanticNetwork, GSNTrainingCallback
 from sb3_comm.comm_ddpg.methods import COMM_METHODS, METHODS, CommMethod
-from sb3_comm.comm_ddpg.policies import CommPolicy, GSNPolicy, NonePolicy, RIALPolicy, TCGPolicy
+from sb3_comm.comm_ddpg.policies import CommPolicy, GSNMAXPolicy, GSNPolicy, NonePolicy, RIALPolicy, TCGPolicy
 from sb3_comm.hybrid_ddpg import HybridDDPG, HybridPolicy
 
 __all__ = [
@@ -19,6 +19,7 @@ __all__ = [
     "CommDDPG",
     "CommMethod",
     "CommPolicy",
+    "GSNMAXPolicy",
     "GSNPolicy",
     "GSNTrainingCallback",
     "GroundedSemanticNetwork",

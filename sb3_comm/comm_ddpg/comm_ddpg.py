@@ -19,6 +19,9 @@ that keeps both agents of a game together, the message channel, and the communic
 * ``"GSN"``: messages are the hidden layer of a grounded semantic network trained to predict the
   teammate's reward; :class:`~sb3_comm.comm_ddpg.gsn.GSNTrainingCallback` trains it once per agent
   update (paper §3).
+* ``"GSN-MAX"`` (beyond the paper): GSN's messages, whose extractor the same callback moves along
+  a normalised mix of the regression's gradient and the receiver critic's (TCG's signal)
+  (:class:`~sb3_comm.comm_ddpg.methods.GSNMAX`).
 """
 
 from __future__ import annotations
@@ -36,8 +39,15 @@ from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedul
 
 from sb3_comm.comm_ddpg.buffers import JointReplayBuffer, JointReplayBufferSamples
 from sb3_comm.comm_ddpg.gsn import GSNTrainingCallback
-from sb3_comm.comm_ddpg.methods import METHODS, TCG
-from sb3_comm.comm_ddpg.policies import CommPolicy, GSNPolicy, NonePolicy, RIALPolicy, TCGPolicy
+from sb3_comm.comm_ddpg.methods import GSNMAX, METHODS, TCG
+from sb3_comm.comm_ddpg.policies import (
+    CommPolicy,
+    GSNMAXPolicy,
+    GSNPolicy,
+    NonePolicy,
+    RIALPolicy,
+    TCGPolicy,
+)
 from sb3_comm.common.layout import CommLayout
 from sb3_comm.common.train_log import NOT_SCALAR_FORMATS
 from sb3_comm.common.validation import check_hyperparameters
@@ -51,15 +61,22 @@ SelfCommDDPG = TypeVar("SelfCommDDPG", bound="CommDDPG")
 class CommDDPG(HybridDDPG):
     """Hybrid-action DDPG (:class:`~sb3_comm.HybridDDPG`) with a learned message channel between two agents.
 
-    :param policy: the communication method, ``"NONE"``, ``"RIAL"``, ``"TCG"`` or ``"GSN"``
-        (or a :class:`CommPolicy` subclass).
+    :param policy: the communication method, ``"NONE"``, ``"RIAL"``, ``"TCG"``, ``"GSN"`` or
+        ``"GSN-MAX"`` (or a :class:`CommPolicy` subclass).
     :param env: a two-agent environment: a registered id (``"BlindSoccer-v0"``,
         ``"GuessMyNumber-v0"``), a :class:`~sb3_comm.wrappers.TwoAgentEnv`, or a VecEnv of them
         (:func:`sb3_comm.make_comm_vec_env` steps many games at once).
     :param learning_rate: critic learning rate (float or schedule).
     :param actor_learning_rate: actor learning rate or schedule (reference code: 1e-5).
     :param gsn_learning_rate: GSN learning rate or schedule of the remaining progress, e.g.
-        ``LinearSchedule(1e-3, 0, 1)`` (paper: a constant 1e-6).
+        ``LinearSchedule(1e-3, 0, 1)`` (paper: a constant 1e-6); GSN-MAX: its grounding step.
+    :param gsn_max_weight: GSN-MAX only: the share ``w`` of the maximising signal (the receiver
+        critic's gradient) in the message extractor's gradient, each signal scaled to unit RMS.
+    :param gsn_max_signals: GSN-MAX only: ``"both"``, or ``"grounding"`` / ``"maximising"`` alone
+        (the method's ablations).
+    :param gsn_max_explore_messages: GSN-MAX only: explore messages like actions (with probability
+        ε a uniformly random message is sent), so that the receiver's critic sees messages other
+        than the current ones; False sends ``M(o)`` always, as GSN.
     :param buffer_size: replay size in joint transitions.
     :param learning_starts: transitions collected with full exploration before learning.
     :param batch_size: joint transitions per update (agents and GSN).
@@ -99,6 +116,7 @@ class CommDDPG(HybridDDPG):
         "RIAL": RIALPolicy,
         "TCG": TCGPolicy,
         "GSN": GSNPolicy,
+        "GSN-MAX": GSNMAXPolicy,
     }
     policy: CommPolicy
     replay_buffer: JointReplayBuffer
@@ -110,6 +128,9 @@ class CommDDPG(HybridDDPG):
         learning_rate: float | Schedule = 1e-3,
         actor_learning_rate: float | Schedule = 1e-4,
         gsn_learning_rate: float | Schedule = 1e-3,
+        gsn_max_weight: float = 0.5,
+        gsn_max_signals: str = "both",
+        gsn_max_explore_messages: bool = True,
         buffer_size: int = 200_000,
         learning_starts: int = 1_000,
         batch_size: int = 64,
@@ -143,12 +164,18 @@ class CommDDPG(HybridDDPG):
         check_hyperparameters(
             {
                 "gsn_learning_rate": gsn_learning_rate,
+                "gsn_max_weight": gsn_max_weight,
+                "gsn_max_signals": gsn_max_signals,
+                "gsn_max_explore_messages": gsn_max_explore_messages,
                 "tcg_gain": tcg_gain,
                 "channel_size": channel_size,
                 "share_parameters": share_parameters,
             }
         )  # the shared arguments are checked by HybridDDPG
         self.gsn_learning_rate = gsn_learning_rate
+        self.gsn_max_weight = gsn_max_weight
+        self.gsn_max_signals = gsn_max_signals
+        self.gsn_max_explore_messages = gsn_max_explore_messages
         self.tcg_gain = tcg_gain
         self.channel_size = channel_size
         self.share_parameters = share_parameters
@@ -241,20 +268,34 @@ class CommDDPG(HybridDDPG):
         return {"comm_layout": layout, "share_parameters": self.share_parameters}
 
     def _explorable_entries(self) -> np.ndarray:
-        """The environment action, and the message only where it is an action (RIAL, TCG)."""
+        """The environment action, and the message where it is an action (RIAL, TCG) or explored
+        (GSN-MAX)."""
         explorable = np.ones(self.comm_layout.action_dim, dtype=bool)
-        if not self.policy.comm_method.comm_actions:
+        method = self.policy.comm_method
+        explored = method.comm_actions or (method.explore_messages and self.gsn_max_explore_messages)
+        if not explored:
             explorable[self.comm_layout.action_message_slice] = False
         return explorable
 
     def _setup_model(self) -> None:
         super()._setup_model()
+        if not isinstance(self.policy.comm_method, GSNMAX):
+            if self.gsn_max_signals != "both":
+                raise ValueError(
+                    f"gsn_max_signals applies to GSN-MAX only (it switches one of its two signals off); "
+                    f"method {self.method} got gsn_max_signals={self.gsn_max_signals!r}: leave it at 'both'"
+                )
+            if self.gsn_max_explore_messages is not True:
+                raise ValueError(
+                    f"gsn_max_explore_messages applies to GSN-MAX only; method {self.method} got "
+                    f"gsn_max_explore_messages={self.gsn_max_explore_messages!r}: leave it at True"
+                )
         self.gsn = self.policy.gsn
         self._agent_returns: deque[np.ndarray] = deque(maxlen=self._stats_window_size)
 
     @property
     def method(self) -> str:
-        """The communication method: ``"NONE"``, ``"RIAL"``, ``"TCG"`` or ``"GSN"``."""
+        """The communication method: ``"NONE"``, ``"RIAL"``, ``"TCG"``, ``"GSN"`` or ``"GSN-MAX"``."""
         return self.policy.comm_method.name
 
     def _init_callback(self, callback: MaybeCallback, progress_bar: bool = False) -> BaseCallback:
@@ -262,7 +303,11 @@ class CommDDPG(HybridDDPG):
         self.gsn_callback = None
         if self.gsn is not None:
             self.gsn_callback = GSNTrainingCallback(
-                self.gsn_learning_rate, self.batch_size, self.max_grad_norm
+                self.gsn_learning_rate,
+                self.batch_size,
+                self.max_grad_norm,
+                max_weight=self.gsn_max_weight,
+                signals=self.gsn_max_signals,
             )
             callback = CallbackList([self.gsn_callback, callback])
             callback.init_callback(self)

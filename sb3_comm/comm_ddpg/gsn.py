@@ -42,6 +42,10 @@ class GroundedSemanticNetwork(nn.Module):
     :param share_parameters: one GSN for both agents (role one-hot tells them apart) or one each.
     :param message_activation: ``"tanh"`` bounds messages to [-1, 1] inside the network;
         ``"linear"`` leaves them raw (the channel clips them), as the authors' "NoTanh" runs.
+    :param heard_dim: 0 (GSN, the paper), or the message size ``n``: ``R`` also sees the message the
+        teammate heard at that step (the sender's previous message, the last ``n`` entries of the
+        teammate's observation row), so that a reward the sender's own earlier message caused is
+        explained by that input and not asked of the new message (GSN-MAX).
     :param normalize_rewards: regress on teammate rewards standardised by their running mean and
         standard deviation. Soccer rewards are tiny (a variance of about 1e-5 on Blind Soccer), and
         without this the regression barely moves from its initial guess, so the messages carry no
@@ -60,8 +64,10 @@ class GroundedSemanticNetwork(nn.Module):
         share_parameters: bool = True,
         message_activation: str = "tanh",
         normalize_rewards: bool = True,
+        heard_dim: int = 0,
     ) -> None:
         super().__init__()
+        self.heard_dim = heard_dim
         if message_activation not in ("tanh", "linear"):
             raise ValueError(f"message_activation must be 'tanh' or 'linear', got {message_activation!r}")
         self.teammate_action_dim = teammate_action_dim
@@ -71,11 +77,18 @@ class GroundedSemanticNetwork(nn.Module):
         self.register_buffer("reward_mean", th.zeros(()))
         self.register_buffer("reward_var", th.ones(()))
         self.register_buffer("reward_count", th.zeros(()))
+        self.optimizer: th.optim.Optimizer | None = None
+        """Optimizer of ``M`` and ``R`` (set by the policy)."""
         self.message_extractor = AgentMLPs(
             n_agents, obs_dim, channel_size, message_net_arch, activation_fn, share_parameters
         )
         self.reward_model = AgentMLPs(
-            n_agents, channel_size + teammate_action_dim, 1, reward_net_arch, activation_fn, share_parameters
+            n_agents,
+            channel_size + teammate_action_dim + heard_dim,
+            1,
+            reward_net_arch,
+            activation_fn,
+            share_parameters,
         )
 
     def message(self, obs: th.Tensor) -> th.Tensor:
@@ -83,8 +96,14 @@ class GroundedSemanticNetwork(nn.Module):
         raw = self.message_extractor(obs)
         return th.tanh(raw) if self.message_activation == "tanh" else raw
 
-    def _raw_prediction(self, obs: th.Tensor, teammate_actions: th.Tensor) -> th.Tensor:
-        features = th.cat([self.message(obs), teammate_actions[..., : self.teammate_action_dim]], dim=-1)
+    def _raw_prediction(
+        self, obs: th.Tensor, teammate_actions: th.Tensor, messages: th.Tensor | None = None
+    ) -> th.Tensor:
+        messages = self.message(obs) if messages is None else messages
+        parts = [messages, teammate_actions[..., : self.teammate_action_dim]]
+        if self.heard_dim:  # what each row's teammate heard: the end of the teammate's row
+            parts.append(obs.flip(-2)[..., -self.heard_dim :])
+        features = th.cat(parts, dim=-1)
         return self.reward_model(features).squeeze(-1)
 
     @property
@@ -107,7 +126,9 @@ class GroundedSemanticNetwork(nn.Module):
         self.reward_var.copy_(m2 / total)
         self.reward_count.copy_(total)
 
-    def loss(self, obs: th.Tensor, actions: th.Tensor, rewards: th.Tensor) -> th.Tensor:
+    def loss(
+        self, obs: th.Tensor, actions: th.Tensor, rewards: th.Tensor, messages: th.Tensor | None = None
+    ) -> th.Tensor:
         """Paper eq. 2 on joint tuples: each agent predicts the other's reward from the other's action.
 
         In training mode the running reward moments are updated first; with
@@ -116,6 +137,8 @@ class GroundedSemanticNetwork(nn.Module):
         :param obs: ``(B, 2, obs_dim)`` the senders' observations.
         :param actions: ``(B, 2, action_dim)`` both agents' actions (row ``j`` is agent ``j``'s).
         :param rewards: ``(B, 2)`` both agents' rewards.
+        :param messages: ``(B, 2, n)`` the messages ``M(obs)`` when already computed (GSN-MAX
+            differentiates the loss with respect to them).
         """
         teammate_actions = actions.flip(1)
         target = rewards.flip(1)
@@ -124,7 +147,7 @@ class GroundedSemanticNetwork(nn.Module):
                 with th.no_grad():
                     self.update_reward_statistics(target)
             target = (target - self.reward_mean) / self.reward_std
-        return F.mse_loss(self._raw_prediction(obs, teammate_actions), target)
+        return F.mse_loss(self._raw_prediction(obs, teammate_actions, messages), target)
 
 
 class GSNTrainingCallback(BaseCallback):
@@ -136,9 +159,17 @@ class GSNTrainingCallback(BaseCallback):
     batch of joint tuples ``(o_sender, a_teammate, r_teammate)``. It reads only the model's public
     ``policy.gsn``, ``replay_buffer``, ``n_updates`` and ``progress_remaining``.
 
+    For ``GSN-MAX`` (:class:`~sb3_comm.comm_ddpg.methods.GSNMAX`) each update gives the message
+    extractor the normalised mix of the grounding regression's and the receivers' critic
+    gradients at the messages (:meth:`GSNMAX.message_gradient
+    <sb3_comm.comm_ddpg.methods.GSNMAX.message_gradient>`); the reward model gets the regression's.
+
     :param learning_rate: GSN learning rate, or a schedule of the remaining progress (1 -> 0).
     :param batch_size: joint tuples per update.
     :param max_grad_norm: gradient clipping (0 or None: none).
+    :param max_weight: GSN-MAX's weight ``w`` of the maximising signal (other methods: unused).
+    :param signals: GSN-MAX's signals, one of ``GSN_MAX_SIGNALS`` (``"both"``, ``"grounding"``,
+        ``"maximising"``); GSN always uses only the grounding.
     :param verbose: 0 silent, 1 info.
     """
 
@@ -147,13 +178,17 @@ class GSNTrainingCallback(BaseCallback):
         learning_rate: float | Schedule = 1e-3,
         batch_size: int = 64,
         max_grad_norm: float | None = 10.0,
+        max_weight: float = 0.5,
+        signals: str = "both",
         verbose: int = 0,
     ) -> None:
         super().__init__(verbose)
         self.learning_rate = learning_rate
         self.lr_schedule = FloatSchedule(learning_rate)
+        self.max_weight = max_weight
         self.batch_size = batch_size
         self.max_grad_norm = max_grad_norm
+        self.signals = signals
         self.n_updates = 0
         """GSN updates performed by this callback."""
         self.agent_updates_matched = 0
@@ -179,7 +214,8 @@ class GSNTrainingCallback(BaseCallback):
 
         :param n_updates: number of gradient steps.
         """
-        gsn: GroundedSemanticNetwork | None = self.model.policy.gsn  # type: ignore[union-attr]
+        policy = self.model.policy  # type: ignore[union-attr]
+        gsn: GroundedSemanticNetwork | None = policy.gsn
         replay_buffer = self.model.replay_buffer  # type: ignore[attr-defined]
         if gsn is None or n_updates <= 0 or replay_buffer is None:
             return
@@ -190,10 +226,33 @@ class GSNTrainingCallback(BaseCallback):
             group["lr"] = lr
         log = self.model.train_log  # type: ignore[attr-defined]
         log.add("gsn/learning_rate", lr)
+        method = policy.comm_method
+        mixing = getattr(method, "message_gradient", None)  # GSN-MAX
+        extractor = list(gsn.message_extractor.parameters())
+        reward_model = list(gsn.reward_model.parameters())
         for _ in range(n_updates):
             data = replay_buffer.sample(self.batch_size)
-            loss = gsn.loss(data.observations, data.actions, data.rewards)
-            gradient_step(gsn.optimizer, loss, self.max_grad_norm)  # type: ignore[arg-type]
+            if mixing is None:  # GSN: the regression alone (paper eq. 2)
+                loss = gsn.loss(data.observations, data.actions, data.rewards)
+                gradient_step(gsn.optimizer, loss, self.max_grad_norm)  # type: ignore[arg-type]
+            else:
+                messages = gsn.message(data.observations)
+                sent = messages.detach().requires_grad_(True)
+                loss = gsn.loss(data.observations, data.actions, data.rewards, messages=sent)
+                *reward_grads, grounding = th.autograd.grad(loss, [*reward_model, sent])
+                gradient, stats = mixing(
+                    policy, sent.detach(), grounding, data.next_observations, data.dones,
+                    self.max_weight, self.signals,
+                )  # fmt: skip
+                extractor_grads = th.autograd.grad(messages, extractor, grad_outputs=gradient)
+                trained = [*reward_model, *extractor]
+                for param, grad in zip(trained, [*reward_grads, *extractor_grads], strict=True):
+                    param.grad = grad
+                if self.max_grad_norm:
+                    th.nn.utils.clip_grad_norm_(trained, self.max_grad_norm, foreach=True)
+                gsn.optimizer.step()  # type: ignore[union-attr]
+                for key, value in stats.items():
+                    log.add(key, value)
             log.add("gsn/loss", loss.detach())
             # the prediction error in reward units (the loss is standardised when normalising)
             scale = gsn.reward_std.detach() if gsn.normalize_rewards else 1.0

@@ -8,7 +8,11 @@ A method answers three questions, and nothing else in the package asks which met
 * **which message gradient the sender's actor gets** (:meth:`CommMethod.actor_gradient`): the
   sender's own critic (``RIAL``), the receiver's critic (``TCG``, paper §5), or none (``GSN`` and
   ``NONE`` have no message outputs);
-* **which extra networks exist** (:meth:`CommMethod.make_networks`): the GSN for ``GSN``.
+* **which extra networks exist** (:meth:`CommMethod.make_networks`): the GSN for ``GSN`` and
+  ``GSN-MAX``.
+
+Beyond the paper, ``GSN-MAX`` (:class:`GSNMAX`) trains the GSN's message extractor with both
+signals: GSN's grounding regression and TCG's receiver-critic gradient.
 """
 
 from __future__ import annotations
@@ -20,8 +24,21 @@ from torch import nn
 
 from sb3_comm.comm_ddpg.gsn import GroundedSemanticNetwork
 from sb3_comm.common.layout import CommLayout
+from sb3_comm.common.networks import inverting_gradients
 
-__all__ = ["COMM_METHODS", "GSN", "METHODS", "NONE", "RIAL", "TCG", "CommMethod", "TeamPolicy"]
+__all__ = [
+    "COMM_METHODS",
+    "GSN",
+    "GSNMAX",
+    "GSN_MAX_SIGNALS",
+    "METHODS",
+    "NONE",
+    "PAPER_METHODS",
+    "RIAL",
+    "TCG",
+    "CommMethod",
+    "TeamPolicy",
+]
 
 
 class TeamPolicy(Protocol):
@@ -48,6 +65,8 @@ class CommMethod:
     name: ClassVar[str]
     comm_actions: ClassVar[bool] = False
     """Messages are actor outputs: explored like actions and seen by the critic."""
+    explore_messages: ClassVar[bool] = False
+    """Messages that are not actor outputs are still explored (ε-random messages are sent)."""
 
     def make_networks(self, policy: TeamPolicy) -> GroundedSemanticNetwork | None:
         """The method's extra trained network (None: none)."""
@@ -119,6 +138,21 @@ class TCG(RIAL):
         return grad
 
     @staticmethod
+    def receiver_message_gradients(
+        policy: TeamPolicy, messages: th.Tensor, next_obs: th.Tensor, dones: th.Tensor, gain: float = 1.0
+    ) -> th.Tensor:
+        """``gain · ∂Q_j(o'_j[m_i], a'_j)/∂m_i`` for each sender ``i`` of ``messages`` ``(B, 2, n)``,
+        its receiver ``j``; see :meth:`teammate_message_gradients`."""
+        start = policy.comm_layout.obs_message_slice.start
+        received = messages.detach().flip(1).clone().requires_grad_(True)
+        next_rows = th.cat([next_obs[..., :start], received], dim=-1)
+        with th.no_grad():
+            next_actions = policy.actor_outputs(next_rows)
+        receiver_q = policy.q_values(next_rows, next_actions)[0]
+        grad_received = th.autograd.grad(receiver_q.sum(), received)[0]
+        return gain * grad_received.flip(1) * (1.0 - dones).unsqueeze(-1)
+
+    @staticmethod
     def teammate_message_gradients(
         policy: TeamPolicy, out: th.Tensor, next_obs: th.Tensor, dones: th.Tensor, gain: float = 1.0
     ) -> th.Tensor:
@@ -138,14 +172,8 @@ class TCG(RIAL):
         :param gain: scale of the gradient (``tcg_gain``).
         :return: ``(B, 2, n)`` gradient for each sender's message outputs.
         """
-        start = policy.comm_layout.obs_message_slice.start
-        received = out[..., policy.env_action_dim :].detach().flip(1).clone().requires_grad_(True)
-        next_rows = th.cat([next_obs[..., :start], received], dim=-1)
-        with th.no_grad():
-            next_actions = policy.actor_outputs(next_rows)
-        receiver_q = policy.q_values(next_rows, next_actions)[0]
-        grad_received = th.autograd.grad(receiver_q.sum(), received)[0]
-        return gain * grad_received.flip(1) * (1.0 - dones).unsqueeze(-1)
+        messages = out[..., policy.env_action_dim :]
+        return TCG.receiver_message_gradients(policy, messages, next_obs, dones, gain)
 
 
 class GSN(CommMethod):
@@ -155,6 +183,8 @@ class GSN(CommMethod):
     """
 
     name = "GSN"
+    reward_model_hears: ClassVar[bool] = False
+    """The reward model also sees the message the teammate heard (GSN-MAX; not the paper's GSN)."""
 
     def make_networks(self, policy: TeamPolicy) -> GroundedSemanticNetwork | None:
         """The :class:`GroundedSemanticNetwork`, sized by the policy's ``gsn_*`` settings."""
@@ -170,6 +200,7 @@ class GSN(CommMethod):
             policy.share_parameters,
             policy.gsn_message_activation,
             policy.gsn_normalize_rewards,
+            heard_dim=layout.channel_size if self.reward_model_hears else 0,
         )
 
     def messages(self, policy: TeamPolicy, obs: th.Tensor, out: th.Tensor) -> th.Tensor:
@@ -179,8 +210,96 @@ class GSN(CommMethod):
             return policy.gsn.message(obs)
 
 
-METHODS = ("NONE", "RIAL", "TCG", "GSN")
-"""Communication methods: no channel, reinforced, teammate gradients, grounded semantic network."""
+GSN_MAX_SIGNALS = ("both", "grounding", "maximising")
+"""What trains GSN-MAX's message extractor: both signals, or one of them (the method's ablations)."""
 
-COMM_METHODS: dict[str, type[CommMethod]] = {method.name: method for method in (NONE, RIAL, TCG, GSN)}
+
+class GSNMAX(GSN):
+    r"""GSN-MAX (beyond the paper, its §8): grounded messages that also maximise the teammate's return.
+
+    The message is the GSN's hidden layer ``m_i = M(o_i; θm)``, as in GSN. Its extractor is
+    trained, in one Adam step per agent update, along a mix of two gradients *at the message*:
+
+    * **grounding** (GSN, paper eq. 2): ``d_g = ∂L_g/∂m`` with ``L_g = E[(R(m_i, a_j, h_j) − r_j)²]``;
+      the reward model ``R`` is trained by ``L_g`` alone. Unlike GSN's, ``R`` also sees ``h_j``,
+      the message the teammate heard at that step (the sender's previous message): where the
+      teammate's reward follows the sender's own earlier message (Guess My Number), that input
+      explains it, instead of the regression pulling the new message toward wherever the reward
+      is easiest to predict (no reward at all);
+    * **maximising** (TCG's signal, paper §5): ``d_m = −g``, with
+      ``g_i = (1 − d)·∂Q_j(o'_j ⊕ m_i, a'_j)/∂m_i`` the receiver's critic gradient
+      (``a'_j = μ_j(o'_j ⊕ m_i)`` held fixed).
+
+    Each is scaled to unit root-mean-square over the batch, so that the mix does not depend on the
+    units (a standardised reward error against return units that change as the critic learns),
+    and the mix passes through the inverting gradients of a bounded output (SPEC §2), which keep
+    messages in [-1, 1] without a saturating ``tanh`` (GSN-MAX's configuration uses linear
+    messages: ``gsn_message_activation="linear"``)::
+
+        d = rms(d_g) · [(1 − w) · d_g / rms(d_g) + w · d_m / rms(d_m)]
+        θm ← θm − η · Adam(Jᵀ inv(d)),        J = ∂m/∂θm
+
+    ``w`` (``gsn_max_weight``, default 0.5) is the maximising share. One optimizer sees the sum,
+    so a signal that is mostly noise (the receiver's critic early on) averages out in Adam's
+    momentum instead of being amplified to full steps, as it is with one optimizer per signal
+    (benchmarks/results/gsn_max_variants.md). ``gsn_max_signals="grounding"`` or
+    ``"maximising"`` uses one signal alone.
+
+    Messages are explored like RIAL's and TCG's (with probability ε a uniformly random message is
+    sent; ``gsn_max_explore_messages``), so that the receiver's critic sees the effect of messages
+    other than the current ones.
+    """
+
+    name = "GSN-MAX"
+    explore_messages = True
+
+    reward_model_hears = True
+
+    @staticmethod
+    def message_gradient(
+        policy: TeamPolicy,
+        messages: th.Tensor,
+        grounding: th.Tensor,
+        next_obs: th.Tensor,
+        dones: th.Tensor,
+        weight: float = 0.5,
+        signals: str = "both",
+    ) -> tuple[th.Tensor, dict[str, th.Tensor]]:
+        """The gradient ``d`` that trains the message extractor, at the messages.
+
+        :param policy: the team's policy (its actor and critic give the maximising signal).
+        :param messages: ``(B, 2, n)`` the senders' current messages ``M(o)`` (detached).
+        :param grounding: ``(B, 2, n)`` ``∂L_g/∂m``, the regression's gradient at them.
+        :param next_obs: ``(B, 2, obs_dim)`` next observations.
+        :param dones: ``(B, 1)`` terminal flags.
+        :param weight: ``w``, the maximising share when ``signals`` is ``"both"``.
+        :param signals: ``"both"``, ``"grounding"`` (``d = d_g``) or ``"maximising"`` (``d = d_m``).
+        :return: ``d`` ``(B, 2, n)`` and the signals' root-mean-squares for the log.
+        """
+        sent = messages.detach()
+        ascent = TCG.receiver_message_gradients(policy, sent, next_obs, dones)
+        maximising = -ascent / ascent.shape[0]  # the gradient of −E[Q] in the batch mean's units
+        rms_g, rms_m = grounding.pow(2).mean().sqrt(), maximising.pow(2).mean().sqrt()
+        stats = {"gsn/grounding_grad_rms": rms_g, "gsn/maximising_grad_rms": rms_m}
+        if signals == "grounding":
+            mixed = grounding
+        elif signals == "maximising":
+            mixed = maximising
+        else:
+            tiny = th.finfo(sent.dtype).tiny
+            unit_g, unit_m = grounding / rms_g.clamp_min(tiny), maximising / rms_m.clamp_min(tiny)
+            mixed = rms_g * ((1.0 - weight) * unit_g + weight * unit_m)
+        # the message is a bounded output: inverting gradients on its ascent direction −d
+        return -inverting_gradients(-mixed, sent), stats
+
+
+METHODS = ("NONE", "RIAL", "TCG", "GSN", "GSN-MAX")
+"""Communication methods: no channel, reinforced, teammate gradients, grounded semantic network,
+and (beyond the paper) the grounded semantic network that also maximises."""
+
+PAPER_METHODS = ("NONE", "RIAL", "TCG", "GSN")
+"""The paper's four methods: its claims compare these (GSN-MAX is judged by the report's
+"beyond the paper" claims instead)."""
+
+COMM_METHODS: dict[str, type[CommMethod]] = {method.name: method for method in (NONE, RIAL, TCG, GSN, GSNMAX)}
 """Method name -> its class."""

@@ -7,10 +7,10 @@ environment action and, where messages are actions (RIAL, TCG), ``n`` communicat
 critic sees the observation and all actor outputs. Where the outgoing message comes from, and
 which extra network exists, is the business of the policy's
 :class:`~sb3_comm.comm_ddpg.methods.CommMethod` (SPEC §1): ``NONE`` zeros, ``RIAL``/``TCG`` the
-actor's communication outputs, ``GSN`` the message extractor ``M(o)`` of the
+actor's communication outputs, ``GSN`` and ``GSN-MAX`` the message extractor ``M(o)`` of the
 :class:`~sb3_comm.comm_ddpg.gsn.GroundedSemanticNetwork`.
 
-``NonePolicy``, ``RIALPolicy``, ``TCGPolicy`` and ``GSNPolicy`` are the policy aliases of
+``NonePolicy``, ``RIALPolicy``, ``TCGPolicy``, ``GSNPolicy`` and ``GSNMAXPolicy`` are the policy aliases of
 :class:`~sb3_comm.CommDDPG` (and the class paths saved in model files).
 """
 
@@ -24,12 +24,12 @@ from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from torch import nn
 
 from sb3_comm.comm_ddpg.gsn import GroundedSemanticNetwork
-from sb3_comm.comm_ddpg.methods import COMM_METHODS, GSN, METHODS, NONE, RIAL, TCG, CommMethod
+from sb3_comm.comm_ddpg.methods import COMM_METHODS, GSN, GSNMAX, METHODS, NONE, RIAL, TCG, CommMethod
 from sb3_comm.common.layout import CommLayout
 from sb3_comm.common.networks import AgentMLPs
 from sb3_comm.hybrid_ddpg.policies import HybridPolicy
 
-__all__ = ["METHODS", "CommPolicy", "GSNPolicy", "NonePolicy", "RIALPolicy", "TCGPolicy"]
+__all__ = ["METHODS", "CommPolicy", "GSNMAXPolicy", "GSNPolicy", "NonePolicy", "RIALPolicy", "TCGPolicy"]
 
 
 class CommPolicy(HybridPolicy):
@@ -100,7 +100,7 @@ class CommPolicy(HybridPolicy):
 
     @property
     def method(self) -> str:
-        """The communication method's name: ``"NONE"``, ``"RIAL"``, ``"TCG"`` or ``"GSN"``."""
+        """The communication method's name: ``"NONE"``, ``"RIAL"``, ``"TCG"``, ``"GSN"`` or ``"GSN-MAX"``."""
         return self.comm_method.name
 
     @property
@@ -135,7 +135,7 @@ class CommPolicy(HybridPolicy):
         super()._build(lr_schedule)
         self.gsn = self.comm_method.make_networks(self)
         if self.gsn is not None:
-            self.gsn.optimizer = self.make_optimizer(self.gsn, lr_schedule(1))  # type: ignore[assignment]
+            self.gsn.optimizer = self.make_optimizer(self.gsn, lr_schedule(1))
 
     # ---------------------------------------------------------------------------- helpers --
     def critic_value(self, critic: nn.Module, x: th.Tensor) -> th.Tensor:
@@ -214,3 +214,9 @@ class GSNPolicy(CommPolicy):
     """GSN: messages are the hidden layer of a network predicting the teammate's reward."""
 
     method_class = GSN
+
+
+class GSNMAXPolicy(CommPolicy):
+    """GSN-MAX: GSN messages whose extractor is also trained along the receiver critic's gradient."""
+
+    method_class = GSNMAX

@@ -1,0 +1,163 @@
+"""The GSN-MAX variants tried, one table: what each design reached on each task.
+
+Reads the single-run results that ``benchmarks/solve.py --methods GSN-MAX ... --name
+gsn_max_variant_<variant>`` wrote (``benchmarks/results/gsn_max_variant_*.json``) and, with
+``--experiments``, the runs of experiment folders (``runs/<task>/GSN-MAX/<seed>/result.json``),
+and writes ``benchmarks/results/gsn_max_variants.{json,md}``: per run the design, the overrides,
+the budget, the periodic evaluations and the final return as a fraction of the oracle.
+
+    python benchmarks/gsn_max_variants.py --experiments v1=runs/experiments/gsn_max_v1
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import RESULTS_DIR, write_results
+
+from sb3_comm.analysis.references import REFERENCE_SEED, reference_returns
+
+DESIGNS = {
+    "v1": "two Adam optimizers, one per signal (grounding lin_1e-3 on M and R, maximising lin_1e-4 on "
+    "M); tanh messages; no inverting gradients; messages explored",
+    "v2": "v1 + inverting gradients on the maximising message gradient",
+    "v3": "one Adam on M: the two message gradients each scaled to unit RMS and mixed with weight w "
+    "(gsn_max_weight, 0.5); inverting gradients on the maximising part; tanh messages",
+    "v4": "v3 + the reward model also hears the message the teammate heard (the sender's previous one)",
+    "v5 (kept)": "v4 + inverting gradients on the mixed gradient instead, and linear messages "
+    "(gsn_message_activation linear): the packaged zoo_configs/gsn-max.yml",
+}
+"""The designs, in the order they were tried; each variant below is one of them plus its overrides."""
+
+VERSIONS = {
+    "gmn_maxonly": "v1",
+    "gmn_eqlr": "v1",
+    "gmn_maxonly_linear": "v1",
+    "gmn_maxonly_lr3e-4": "v1",
+    "bs_v1": "v1",
+    "gmn_maxonly_inv": "v2",
+    "gmn_maxonly_inv_linear": "v2",
+    "gmn_v2_tanh": "v2",
+    "gmn_v2_linear": "v2",
+    "bs_v2_tanh": "v2",
+    "bs_v2_tanh_noexplore": "v2",
+    "gmn_v3": "v3",
+    "gmn_v3_w0.8": "v3",
+    "gmn_v4": "v4",
+    "bs_v4": "v4",
+}
+"""The design each variant ran with (any other: v5, the kept one)."""
+
+
+def _design(name: str) -> str:
+    version = VERSIONS.get(name, "v5 (kept)")
+    return f"{version}: {DESIGNS[version]}"
+
+
+def _row(variant: str, run: dict[str, Any], oracle: float, overrides: list[str]) -> dict[str, Any]:
+    curve = [(int(p["timesteps"]), float(p["mean_return"])) for p in run.get("curve", [])]
+    final = run.get("final", {}).get("none", {}).get("mean_return")
+    return {
+        "variant": variant,
+        "design": _design(variant),
+        "task": run["task"],
+        "seed": run["seed"],
+        "timesteps": run["timesteps"],
+        "overrides": overrides,
+        "curve": curve,
+        "best_periodic": max((r for _, r in curve), default=None),
+        "final_return": final,
+        "final_fraction": None if final is None else final / oracle,
+        "zeroed": run.get("final", {}).get("zero", {}).get("mean_return"),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--experiments",
+        nargs="*",
+        default=[],
+        help="NAME=FOLDER experiment folders whose GSN-MAX runs to add",
+    )
+    parser.add_argument(
+        "--partial",
+        nargs="*",
+        default=[],
+        help="NAME=RUN_DIR: a variant stopped early (its evaluations.json; overrides from run_settings)",
+    )
+    parser.add_argument("--name", default="gsn_max_variants")
+    args = parser.parse_args()
+
+    oracles: dict[str, float] = {}
+
+    def oracle(task: str) -> float:
+        if task not in oracles:
+            references = reference_returns(task, n_episodes=1000, seed=REFERENCE_SEED)
+            assert references is not None
+            oracles[task] = references["oracle"]
+        return oracles[task]
+
+    rows = []
+    for path in sorted(RESULTS_DIR.glob("gsn_max_variant_*.json")):
+        data = json.loads(path.read_text())
+        variant = path.stem.removeprefix("gsn_max_variant_")
+        for run in data["runs"]:
+            rows.append(_row(variant, run, data["oracle_return"], data["args"]["params"]))
+    for item in args.partial:
+        label, _, folder = item.partition("=")
+        run_dir = Path(folder)
+        curve = json.loads((run_dir / "evaluations.json").read_text())
+        curve = curve if isinstance(curve, list) else curve.get("curve", curve.get("evaluations", []))
+        config = (run_dir / "config.yml").read_text() if (run_dir / "config.yml").is_file() else ""
+        task = "BlindSoccer-v0" if "BlindSoccer" in run_dir.name else "GuessMyNumber-v0"
+        keys = ("gsn_", "activation", "n_timesteps")
+        overrides = [line.strip() for line in config.splitlines() if any(k in line for k in keys)]
+        run = {"task": task, "seed": 0, "timesteps": curve[-1]["timesteps"] if curve else 0, "curve": curve}
+        rows.append(_row(label, run, oracle(task), ["stopped early", *overrides]))
+    for item in args.experiments:
+        label, _, folder = item.partition("=")
+        for result in sorted(Path(folder).glob("runs/*/GSN-MAX/*/result.json")):
+            run = json.loads(result.read_text())
+            if run.get("status") != "done":
+                continue
+            rows.append(_row(label, run, oracle(run["task"]), [f"experiment {folder}"]))
+
+    lines = [
+        "| variant | task | seed | steps | overrides | periodic evaluations (k steps: return) | "
+        "final return | fraction of oracle | zeroed |",
+        "|---|---|---:|---:|---|---|---:|---:|---:|",
+    ]
+    for r in rows:
+        curve = ", ".join(f"{t // 1000}: {v:.2f}" for t, v in r["curve"])
+        fraction = "—" if r["final_fraction"] is None else f"{r['final_fraction']:.2f}"
+        final = "—" if r["final_return"] is None else f"{r['final_return']:.3f}"
+        zeroed = "—" if r["zeroed"] is None else f"{r['zeroed']:.3f}"
+        lines.append(
+            f"| {r['variant']} | {r['task']} | {r['seed']} | {r['timesteps']:,} | "
+            f"{' '.join(r['overrides']) or '—'} | {curve} | {final} | {fraction} | {zeroed} |"
+        )
+    designs = "\n".join(f"- {text}" for text in DESIGNS.values())
+    notes = (
+        "\n\nDesigns (the code of each version; a variant is a design plus the overrides shown):\n\n"
+        f"{designs}\n\nBudgets below the packaged ones (150k on Guess My Number, 400k on Blind Soccer) "
+        "shorten the linear learning-rate schedules too. Returns are team means over 100 deterministic "
+        "evaluation games; the oracle is the scripted full-information team (1,000 games)."
+    )
+    write_results(
+        args.name,
+        {"designs": DESIGNS, "rows": rows},
+        "\n".join(lines) + notes,
+        title="GSN-MAX: the variants tried",
+    )
+
+
+if __name__ == "__main__":
+    main()
