@@ -29,8 +29,9 @@ DESIGNS = {
     "v3": "one Adam on M: the two message gradients each scaled to unit RMS and mixed with weight w "
     "(gsn_max_weight, 0.5); inverting gradients on the maximising part; tanh messages",
     "v4": "v3 + the reward model also hears the message the teammate heard (the sender's previous one)",
-    "v5 (kept)": "v4 + inverting gradients on the mixed gradient instead, and linear messages "
-    "(gsn_message_activation linear): the packaged zoo_configs/gsn-max.yml",
+    "v5": "v4 + inverting gradients on the mixed gradient instead, and linear messages "
+    "(gsn_message_activation linear)",
+    "v6 (kept)": "v5 without the heard message in the reward model: the packaged zoo_configs/gsn-max.yml",
 }
 """The designs, in the order they were tried; each variant below is one of them plus its overrides."""
 
@@ -50,12 +51,17 @@ VERSIONS = {
     "gmn_v3_w0.8": "v3",
     "gmn_v4": "v4",
     "bs_v4": "v4",
+    "gmn_v5": "v5",
+    "bs_v5": "v5",
+    "bs_v5_final": "v5",
+    "gmn_v6": "v6 (kept)",
+    "bs_v6": "v6 (kept)",
 }
-"""The design each variant ran with (any other: v5, the kept one)."""
+"""The design each variant ran with (any other: v6, the kept one)."""
 
 
 def _design(name: str) -> str:
-    version = VERSIONS.get(name, "v5 (kept)")
+    version = VERSIONS.get(name, "v6 (kept)")
     return f"{version}: {DESIGNS[version]}"
 
 

@@ -524,7 +524,9 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.set_defaults(func=_experiment)
 
     reproduce = sub.add_parser(
-        "reproduce", help="the paper's experiment (NONE/RIAL/TCG/GSN x both tasks x 3 seeds), then the report"
+        "reproduce",
+        help="the paper's experiment (NONE/RIAL/TCG/GSN and, beyond it, GSN-MAX x both tasks x 3 seeds), "
+        "then the report",
     )
     experiment_options(reproduce)
     reproduce.set_defaults(func=_reproduce)

@@ -8,6 +8,7 @@ import pytest
 
 from sb3_comm.analysis import PAPER_CLAIMS, Claim, judge_claims
 from sb3_comm.analysis.claims import (
+    BEYOND_CLAIMS,
     Evidence,
     messages_predict_next_action,
     only_solver,
@@ -133,3 +134,54 @@ def test_the_claims_list_is_data_that_can_be_extended() -> None:
     verdicts = {r["id"]: r["verdict"] for r in records}
     assert verdicts["C1"] == verdicts["C3"] == verdicts["C5"] == "reproduced"
     assert verdicts["C6"] == "not measured"  # no Guess My Number runs
+
+
+def _two_task_evidence(fractions: dict[str, list[float]]) -> Evidence:
+    """GSN-MAX's finals on each task, given as fractions of the oracle per seed."""
+    finals = {}
+    for task, values in fractions.items():
+        runs = [
+            {
+                "seed": seed,
+                "result": RunResult(
+                    "GSN-MAX",
+                    task,
+                    seed,
+                    final={a: {"mean_return": f * ORACLE} for a in ("none", "zero", "shuffle")},
+                ),
+            }
+            for seed, f in enumerate(values)
+        ]
+        finals[task] = final_returns_table({"GSN-MAX": runs}, {"oracle": ORACLE, "random": RANDOM}, 200, 0)
+    return Evidence(finals, {})
+
+
+@pytest.mark.parametrize(
+    ("fractions", "verdict"),
+    [
+        ({"BlindSoccer-v0": [0.95, 0.91, 0.93], "GuessMyNumber-v0": [0.99, 0.97, 0.98]}, "reproduced"),
+        ({"BlindSoccer-v0": [0.99, 0.85, 0.97], "GuessMyNumber-v0": [0.99, 0.97, 0.98]}, "partly"),
+        ({"BlindSoccer-v0": [0.2, 0.1, 0.3], "GuessMyNumber-v0": [0.99, 0.97, 0.98]}, "partly"),
+        ({"BlindSoccer-v0": [0.2, 0.1, 0.3], "GuessMyNumber-v0": [0.1, 0.0, 0.2]}, "not"),
+        ({"BlindSoccer-v0": [0.95, 0.91, 0.93]}, "not measured"),
+    ],
+)
+def test_beyond_the_paper_gsn_max_must_solve_every_task_on_every_seed(
+    fractions: dict[str, list[float]], verdict: str
+) -> None:
+    (claim,) = BEYOND_CLAIMS
+    record = claim.judge(_two_task_evidence(fractions))
+    assert record["id"] == "B1" and record["verdict"] == verdict
+    if verdict != "not measured":
+        assert "worst seed" in record["measured"] and record["n_seeds"] == 3
+
+
+def test_a_method_beyond_the_paper_does_not_change_the_papers_only_solver_claims() -> None:
+    methods = {
+        "GSN": _runs("GSN", [(0.58, -0.4)] * 3),
+        "TCG": _runs("TCG", [(0.1, 0.1)] * 3),
+        "GSN-MAX": _runs("GSN-MAX", [(0.59, -0.4)] * 3),  # solves it too, but is not the paper's
+    }
+    finals, comm = _evidence(methods)
+    records = {r["id"]: r for r in judge_claims(finals, comm)}
+    assert records["C2"]["verdict"] == "reproduced" and "GSN-MAX" not in records["C2"]["values"]

@@ -240,10 +240,13 @@ def test_bad_signals_are_a_clear_error() -> None:
         CommDDPG("GSN-MAX", vec, gsn_max_explore_messages="yes")
 
 
-def test_the_reward_model_also_hears_what_the_teammate_heard() -> None:
-    """GSN-MAX's R sees the message the teammate heard (the end of the teammate's row), so a reward
-    caused by the sender's earlier message is not asked of the new one; GSN's R (the paper) does not."""
-    model = replay_filled_model()
+def test_the_reward_model_can_also_hear_what_the_teammate_heard(tmp_path) -> None:
+    """With ``gsn_reward_hears=True`` R sees the message the teammate heard (the end of the
+    teammate's row); by default (GSN-MAX's configuration, and GSN, the paper) it does not."""
+    assert replay_filled_model().policy.gsn.heard_dim == 0
+    vec = make_vec_env(coin_env, n_envs=2, seed=0)
+    kwargs = {"net_arch": [32, 32], "gsn_net_arch": [16], "gsn_reward_hears": True}
+    model = CommDDPG("GSN-MAX", vec, share_parameters=False, policy_kwargs=kwargs, seed=0, device="cpu")
     gsn = model.policy.gsn
     n, obs_dim = model.comm_layout.channel_size, model.comm_layout.obs_dim
     assert gsn.reward_model.nets[0][0].in_features == n + gsn.teammate_action_dim + n
@@ -262,6 +265,9 @@ def test_the_reward_model_also_hears_what_the_teammate_heard() -> None:
         fixed = gsn._raw_prediction(changed, actions.flip(1), messages)
         base = gsn._raw_prediction(obs, actions.flip(1), messages)
     th.testing.assert_close(fixed[:, 1], base[:, 1])
+
+    model.save(tmp_path / "hears.zip")
+    assert CommDDPG.load(tmp_path / "hears.zip", device="cpu").policy.gsn.heard_dim == n
 
     paper_gsn = CommDDPG(
         "GSN", make_vec_env(coin_env, n_envs=1), policy_kwargs={"gsn_net_arch": [16]}

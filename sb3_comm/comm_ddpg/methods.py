@@ -200,8 +200,14 @@ class GSN(CommMethod):
             policy.share_parameters,
             policy.gsn_message_activation,
             policy.gsn_normalize_rewards,
-            heard_dim=layout.channel_size if self.reward_model_hears else 0,
+            heard_dim=layout.channel_size if self.hears(policy) else 0,
         )
+
+    def hears(self, policy: TeamPolicy) -> bool:
+        """Whether the reward model also sees the teammate's heard message (the policy's
+        ``gsn_reward_hears``, or the method's default)."""
+        chosen = getattr(policy, "gsn_reward_hears", None)
+        return self.reward_model_hears if chosen is None else bool(chosen)
 
     def messages(self, policy: TeamPolicy, obs: th.Tensor, out: th.Tensor) -> th.Tensor:
         """``m = M(o_sender)``; no gradient flows into the GSN from the agents."""
@@ -220,12 +226,8 @@ class GSNMAX(GSN):
     The message is the GSN's hidden layer ``m_i = M(o_i; θm)``, as in GSN. Its extractor is
     trained, in one Adam step per agent update, along a mix of two gradients *at the message*:
 
-    * **grounding** (GSN, paper eq. 2): ``d_g = ∂L_g/∂m`` with ``L_g = E[(R(m_i, a_j, h_j) − r_j)²]``;
-      the reward model ``R`` is trained by ``L_g`` alone. Unlike GSN's, ``R`` also sees ``h_j``,
-      the message the teammate heard at that step (the sender's previous message): where the
-      teammate's reward follows the sender's own earlier message (Guess My Number), that input
-      explains it, instead of the regression pulling the new message toward wherever the reward
-      is easiest to predict (no reward at all);
+    * **grounding** (GSN, paper eq. 2): ``d_g = ∂L_g/∂m`` with ``L_g = E[(R(m_i, a_j) − r_j)²]``;
+      the reward model ``R`` is trained by ``L_g`` alone, as in GSN;
     * **maximising** (TCG's signal, paper §5): ``d_m = −g``, with
       ``g_i = (1 − d)·∂Q_j(o'_j ⊕ m_i, a'_j)/∂m_i`` the receiver's critic gradient
       (``a'_j = μ_j(o'_j ⊕ m_i)`` held fixed).
@@ -239,7 +241,11 @@ class GSNMAX(GSN):
         d = rms(d_g) · [(1 − w) · d_g / rms(d_g) + w · d_m / rms(d_m)]
         θm ← θm − η · Adam(Jᵀ inv(d)),        J = ∂m/∂θm
 
-    ``w`` (``gsn_max_weight``, default 0.5) is the maximising share. One optimizer sees the sum,
+    ``w`` (``gsn_max_weight``, default 0.5) is the maximising share. ``policy_kwargs``
+    ``gsn_reward_hears=True`` also gives ``R`` the message the teammate heard (the sender's previous
+    one), so that a reward caused by that message is not asked of the new one; tried and left off:
+    on Blind Soccer the heard message says nearly what the new one says, and explains the reward
+    away from it (benchmarks/results/gsn_max_variants.md). One optimizer sees the sum,
     so a signal that is mostly noise (the receiver's critic early on) averages out in Adam's
     momentum instead of being amplified to full steps, as it is with one optimizer per signal
     (benchmarks/results/gsn_max_variants.md). ``gsn_max_signals="grounding"`` or
@@ -253,7 +259,6 @@ class GSNMAX(GSN):
     name = "GSN-MAX"
     explore_messages = True
 
-    reward_model_hears = True
 
     @staticmethod
     def message_gradient(
