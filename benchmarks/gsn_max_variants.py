@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -54,8 +55,11 @@ VERSIONS = {
     "gmn_v5": "v5",
     "bs_v5": "v5",
     "bs_v5_final": "v5",
+    "gmn_v5_w0.1": "v5",
+    "bs_v5_w0.1_400k": "v5",
     "gmn_v6": "v6 (kept)",
     "bs_v6": "v6 (kept)",
+    "bs_v6_w0.1_400k": "v6 (kept)",
 }
 """The design each variant ran with (any other: v6, the kept one)."""
 
@@ -126,7 +130,13 @@ def main() -> None:
         task = "BlindSoccer-v0" if "BlindSoccer" in run_dir.name else "GuessMyNumber-v0"
         keys = ("gsn_", "activation", "n_timesteps")
         overrides = [line.strip() for line in config.splitlines() if any(k in line for k in keys)]
-        run = {"task": task, "seed": 0, "timesteps": curve[-1]["timesteps"] if curve else 0, "curve": curve}
+        seed = int(match.group(1)) if (match := re.search(r"seed(\d+)", run_dir.name)) else 0
+        run = {
+            "task": task,
+            "seed": seed,
+            "timesteps": curve[-1]["timesteps"] if curve else 0,
+            "curve": curve,
+        }
         rows.append(_row(label, run, oracle(task), ["stopped early", *overrides]))
     for item in args.experiments:
         label, _, folder = item.partition("=")

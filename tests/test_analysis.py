@@ -363,3 +363,16 @@ def test_make_report_on_a_synthetic_experiment(tmp_path: Path, monkeypatch: pyte
     assert verdicts["C3"] == "reproduced"  # zeroed messages: -0.85
     assert verdicts["C4"] == "reproduced"  # TCG's return barely moves
     assert verdicts["C5"] == "reproduced"  # probe 0.9 vs majority 0.6
+
+    # Beyond the paper: no GSN-MAX run, no section; with one, claim B1 is shown (here not measured:
+    # GSN-MAX must solve both tasks, and this experiment has Blind Soccer only).
+    assert again["beyond"] == [] and "## Beyond the paper" not in (out / "report.md").read_text()
+    _fake_run(exp, "GSN-MAX", 0, 0.59, -0.5, probe=0.8, messages=False)
+    third = make_report(exp, reps=200, tsne=False, min_seeds=1)
+    beyond = third["beyond"]
+    assert [(c["id"], c["verdict"]) for c in beyond] == [("B1", "not measured")]
+    assert "GuessMyNumber-v0: no runs" in beyond[0]["measured"]
+    markdown = (out / "report.md").read_text()
+    assert "## Beyond the paper" in markdown and "GSN-MAX solves" in markdown
+    # GSN-MAX solves Blind Soccer here (0.59), yet "only GSN solves it" is about the paper's methods
+    assert {c["id"]: c["verdict"] for c in third["claims"]}["C2"] == "reproduced"

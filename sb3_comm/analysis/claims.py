@@ -89,6 +89,7 @@ class Claim:
     :param paper: what the paper says (with the figure or section).
     :param rule: how the measurement becomes a verdict, in words.
     :param evaluate: ``evaluate(evidence) -> measurement`` applying ``rule``.
+    :param methods: the methods it is about.
     """
 
     id: str
@@ -97,6 +98,9 @@ class Claim:
     paper: str
     rule: str
     evaluate: Evaluator
+    methods: tuple[str, ...] = ()
+    """The methods the claim is about (empty: not said); a report shows a claim beyond the paper
+    when one of them has runs."""
 
     def judge(self, evidence: Evidence, min_seeds: int = MIN_SEEDS) -> dict[str, Any]:
         """The claim's record: ``id``, ``task``, ``claim``, ``paper``, ``rule`` and the
@@ -322,6 +326,7 @@ def solves_every_task(cid: str, tasks: Sequence[str], method: str, paper: str) -
         f"partly: a task's mean >= {SOLVED_FRACTION} with a seed below, or only some tasks solved; "
         "not: no task solved",
         evaluate=partial(_solves_every_task, tuple(tasks), method),
+        methods=(method,),
     )
 
 

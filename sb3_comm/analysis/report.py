@@ -164,7 +164,7 @@ def make_report(
         :data:`~sb3_comm.analysis.claims.PAPER_CLAIMS`).
     :param beyond: the claims beyond the paper (default
         :data:`~sb3_comm.analysis.claims.BEYOND_CLAIMS`: GSN-MAX solves both tasks), judged in
-        their own section; shown only when one of their methods has runs.
+        their own section; a claim is shown when one of its methods has runs.
     :return: ``runs`` (every run, used or not, with reasons), ``skipped``, ``references``,
         ``final_returns``, ``communication``, ``tsne``, ``claims``, ``beyond``, ``figures`` and
         ``files``.
@@ -197,9 +197,9 @@ def make_report(
                     figure_files[f"tsne_{task}_{method}"] = entry["files"]
 
     judged = judge_claims(finals, comm, min_seeds, claims)
-    beyond_judged = [
-        c for c in judge_claims(finals, comm, min_seeds, beyond) if c["verdict"] != "not measured"
-    ]
+    measured = {method for table in finals.values() for method in table}
+    shown = [c for c in beyond if set(c.methods) & measured]
+    beyond_judged = judge_claims(finals, comm, min_seeds, shown) if shown else []
     skipped = [{"dir": r["dir"], "reason": r["reason"]} for r in runs if not r["used"]]
     incomplete = [{"dir": r["dir"], "issues": r["issues"]} for r in runs if r["used"] and r["issues"]]
     run_rows = [{k: v for k, v in r.items() if k != "result"} for r in runs]

@@ -45,7 +45,8 @@ class GroundedSemanticNetwork(nn.Module):
     :param heard_dim: 0 (GSN, the paper), or the message size ``n``: ``R`` also sees the message the
         teammate heard at that step (the sender's previous message, the last ``n`` entries of the
         teammate's observation row), so that a reward the sender's own earlier message caused is
-        explained by that input and not asked of the new message (GSN-MAX).
+        explained by that input and not asked of the new message (GSN-MAX's option
+        ``gsn_reward_hears``).
     :param normalize_rewards: regress on teammate rewards standardised by their running mean and
         standard deviation. Soccer rewards are tiny (a variance of about 1e-5 on Blind Soccer), and
         without this the regression barely moves from its initial guess, so the messages carry no

@@ -241,15 +241,16 @@ class GSNMAX(GSN):
         d = rms(d_g) · [(1 − w) · d_g / rms(d_g) + w · d_m / rms(d_m)]
         θm ← θm − η · Adam(Jᵀ inv(d)),        J = ∂m/∂θm
 
-    ``w`` (``gsn_max_weight``, default 0.5) is the maximising share. ``policy_kwargs``
-    ``gsn_reward_hears=True`` also gives ``R`` the message the teammate heard (the sender's previous
-    one), so that a reward caused by that message is not asked of the new one; tried and left off:
-    on Blind Soccer the heard message says nearly what the new one says, and explains the reward
-    away from it (benchmarks/results/gsn_max_variants.md). One optimizer sees the sum,
+    ``w`` (``gsn_max_weight``, default 0.5) is the maximising share. One optimizer sees the sum,
     so a signal that is mostly noise (the receiver's critic early on) averages out in Adam's
-    momentum instead of being amplified to full steps, as it is with one optimizer per signal
-    (benchmarks/results/gsn_max_variants.md). ``gsn_max_signals="grounding"`` or
-    ``"maximising"`` uses one signal alone.
+    momentum instead of being amplified to full steps, as it is with one optimizer per signal.
+    ``gsn_max_signals="grounding"`` or ``"maximising"`` uses one signal alone (the ablations).
+
+    Tried and left as an option: ``policy_kwargs`` ``gsn_reward_hears=True`` also gives ``R`` the
+    message the teammate heard (the sender's previous one), so that a reward caused by that
+    message is not asked of the new one; on Blind Soccer the heard message says nearly what the new
+    one says, and explains the reward away from it. Every variant tried, and what it reached:
+    ``benchmarks/results/gsn_max_variants.md``.
 
     Messages are explored like RIAL's and TCG's (with probability ε a uniformly random message is
     sent; ``gsn_max_explore_messages``), so that the receiver's critic sees the effect of messages
@@ -258,7 +259,6 @@ class GSNMAX(GSN):
 
     name = "GSN-MAX"
     explore_messages = True
-
 
     @staticmethod
     def message_gradient(
