@@ -42,6 +42,7 @@ VERSIONS = {
     "gmn_maxonly_linear": "v1",
     "gmn_maxonly_lr3e-4": "v1",
     "bs_v1": "v1",
+    "gmn_v1_both": "v1",
     "gmn_maxonly_inv": "v2",
     "gmn_maxonly_inv_linear": "v2",
     "gmn_v2_tanh": "v2",
@@ -55,6 +56,7 @@ VERSIONS = {
     "gmn_v5": "v5",
     "bs_v5": "v5",
     "bs_v5_final": "v5",
+    "bs_v5_maximising_only": "v5",
     "gmn_v5_w0.1": "v5",
     "bs_v5_w0.1_400k": "v5",
     "gmn_v6": "v6 (kept)",
@@ -74,6 +76,7 @@ def _row(variant: str, run: dict[str, Any], oracle: float, overrides: list[str])
     final = run.get("final", {}).get("none", {}).get("mean_return")
     return {
         "variant": variant,
+        "version": VERSIONS.get(variant, "v6 (kept)"),
         "design": _design(variant),
         "task": run["task"],
         "seed": run["seed"],
@@ -127,7 +130,7 @@ def main() -> None:
         curve = json.loads((run_dir / "evaluations.json").read_text())
         curve = curve if isinstance(curve, list) else curve.get("curve", curve.get("evaluations", []))
         config = (run_dir / "config.yml").read_text() if (run_dir / "config.yml").is_file() else ""
-        task = "BlindSoccer-v0" if "BlindSoccer" in run_dir.name else "GuessMyNumber-v0"
+        task = "BlindSoccer-v0" if "BlindSoccer" in str(run_dir) else "GuessMyNumber-v0"
         keys = ("gsn_", "activation", "n_timesteps")
         overrides = [line.strip() for line in config.splitlines() if any(k in line for k in keys)]
         seed = int(match.group(1)) if (match := re.search(r"seed(\d+)", run_dir.name)) else 0
@@ -146,10 +149,11 @@ def main() -> None:
                 continue
             rows.append(_row(label, run, oracle(run["task"]), [f"experiment {folder}"]))
 
+    rows.sort(key=lambda r: (r["version"], r["task"], r["variant"], r["seed"]))
     lines = [
-        "| variant | task | seed | steps | overrides | periodic evaluations (k steps: return) | "
+        "| variant | design | task | seed | steps | overrides | periodic evaluations (k steps: return) | "
         "final return | fraction of oracle | zeroed |",
-        "|---|---|---:|---:|---|---|---:|---:|---:|",
+        "|---|---|---|---:|---:|---|---|---:|---:|---:|",
     ]
     for r in rows:
         curve = ", ".join(f"{t // 1000}: {v:.2f}" for t, v in r["curve"])
@@ -157,7 +161,7 @@ def main() -> None:
         final = "—" if r["final_return"] is None else f"{r['final_return']:.3f}"
         zeroed = "—" if r["zeroed"] is None else f"{r['zeroed']:.3f}"
         lines.append(
-            f"| {r['variant']} | {r['task']} | {r['seed']} | {r['timesteps']:,} | "
+            f"| {r['variant']} | {r['version']} | {r['task']} | {r['seed']} | {r['timesteps']:,} | "
             f"{' '.join(r['overrides']) or '—'} | {curve} | {final} | {fraction} | {zeroed} |"
         )
     designs = "\n".join(f"- {text}" for text in DESIGNS.values())
