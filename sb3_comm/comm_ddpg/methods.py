@@ -255,6 +255,8 @@ class GSNMAX(GSN):
     Messages are explored like RIAL's and TCG's (with probability ε a uniformly random message is
     sent; ``gsn_max_explore_messages``), so that the receiver's critic sees the effect of messages
     other than the current ones.
+
+    Status: this design does not yet solve either task reliably (README, "Beyond the paper").
     """
 
     name = "GSN-MAX"
