@@ -25,6 +25,7 @@ from torch import nn
 from sb3_comm.comm_ddpg.gsn import GroundedSemanticNetwork
 from sb3_comm.common.layout import CommLayout
 from sb3_comm.common.networks import inverting_gradients
+from sb3_comm.common.validation import GSN_MAX_SIGNALS
 
 __all__ = [
     "COMM_METHODS",
@@ -53,6 +54,7 @@ class TeamPolicy(Protocol):
     gsn_reward_net_arch: list[int]
     gsn_message_activation: str
     gsn_normalize_rewards: bool
+    gsn_reward_hears: bool
 
     def actor_outputs(self, obs: th.Tensor, target: bool = False) -> th.Tensor: ...
 
@@ -183,8 +185,6 @@ class GSN(CommMethod):
     """
 
     name = "GSN"
-    reward_model_hears: ClassVar[bool] = False
-    """The reward model also sees the message the teammate heard (GSN-MAX; not the paper's GSN)."""
 
     def make_networks(self, policy: TeamPolicy) -> GroundedSemanticNetwork | None:
         """The :class:`GroundedSemanticNetwork`, sized by the policy's ``gsn_*`` settings."""
@@ -200,24 +200,14 @@ class GSN(CommMethod):
             policy.share_parameters,
             policy.gsn_message_activation,
             policy.gsn_normalize_rewards,
-            heard_dim=layout.channel_size if self.hears(policy) else 0,
+            heard_dim=layout.channel_size if policy.gsn_reward_hears else 0,
         )
-
-    def hears(self, policy: TeamPolicy) -> bool:
-        """Whether the reward model also sees the teammate's heard message (the policy's
-        ``gsn_reward_hears``, or the method's default)."""
-        chosen = getattr(policy, "gsn_reward_hears", None)
-        return self.reward_model_hears if chosen is None else bool(chosen)
 
     def messages(self, policy: TeamPolicy, obs: th.Tensor, out: th.Tensor) -> th.Tensor:
         """``m = M(o_sender)``; no gradient flows into the GSN from the agents."""
         assert policy.gsn is not None
         with th.no_grad():
             return policy.gsn.message(obs)
-
-
-GSN_MAX_SIGNALS = ("both", "grounding", "maximising")
-"""What trains GSN-MAX's message extractor: both signals, or one of them (the method's ablations)."""
 
 
 class GSNMAX(GSN):
@@ -281,16 +271,18 @@ class GSNMAX(GSN):
         :param dones: ``(B, 1)`` terminal flags.
         :param weight: ``w``, the maximising share when ``signals`` is ``"both"``.
         :param signals: ``"both"``, ``"grounding"`` (``d = d_g``) or ``"maximising"`` (``d = d_m``).
-        :return: ``d`` ``(B, 2, n)`` and the signals' root-mean-squares for the log.
+        :return: ``d`` ``(B, 2, n)`` and the root-mean-squares of the signals used, for the log.
         """
         sent = messages.detach()
+        rms_g = grounding.pow(2).mean().sqrt()
+        stats = {"gsn/grounding_grad_rms": rms_g}
+        if signals == "grounding":  # no pass through the receivers' critics
+            return -inverting_gradients(-grounding, sent), stats
         ascent = TCG.receiver_message_gradients(policy, sent, next_obs, dones)
         maximising = -ascent / ascent.shape[0]  # the gradient of −E[Q] in the batch mean's units
-        rms_g, rms_m = grounding.pow(2).mean().sqrt(), maximising.pow(2).mean().sqrt()
-        stats = {"gsn/grounding_grad_rms": rms_g, "gsn/maximising_grad_rms": rms_m}
-        if signals == "grounding":
-            mixed = grounding
-        elif signals == "maximising":
+        rms_m = maximising.pow(2).mean().sqrt()
+        stats["gsn/maximising_grad_rms"] = rms_m
+        if signals == "maximising":
             mixed = maximising
         else:
             tiny = th.finfo(sent.dtype).tiny

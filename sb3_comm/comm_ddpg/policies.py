@@ -49,7 +49,7 @@ class CommPolicy(HybridPolicy):
     :param gsn_message_activation: ``"tanh"`` or ``"linear"`` (see the GSN).
     :param gsn_normalize_rewards: standardise the GSN's regression targets (see the GSN).
     :param gsn_reward_hears: the GSN's reward model also sees the message the teammate heard
-        (None: the method's default, True for GSN-MAX, False for GSN).
+        (an option tried for GSN-MAX; off, as in the paper's GSN).
     :param optimizer_class: optimizer of actor, critic and GSN.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
@@ -72,7 +72,7 @@ class CommPolicy(HybridPolicy):
         gsn_reward_net_arch: list[int] | None = None,
         gsn_message_activation: str = "tanh",
         gsn_normalize_rewards: bool = True,
-        gsn_reward_hears: bool | None = None,
+        gsn_reward_hears: bool = False,
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
@@ -89,7 +89,7 @@ class CommPolicy(HybridPolicy):
         self.gsn_reward_net_arch = gsn_reward_net_arch if gsn_reward_net_arch is not None else [128, 128]
         self.gsn_message_activation = gsn_message_activation
         self.gsn_normalize_rewards = gsn_normalize_rewards
-        self.gsn_reward_hears = gsn_reward_hears
+        self.gsn_reward_hears = bool(gsn_reward_hears)  # None in models saved with the first version
         super().__init__(
             observation_space,
             action_space,

@@ -229,12 +229,15 @@ def check_policy_kwargs(name: str, value: Any) -> None:
             POLICY_KWARGS[key](f"{name}[{key!r}]", entry)
 
 
+GSN_MAX_SIGNALS = ("both", "grounding", "maximising")
+"""What trains GSN-MAX's message extractor: both signals, or one of them (the method's ablations)."""
+
 HYPERPARAMETERS: dict[str, Check] = {
     "learning_rate": RATE,
     "actor_learning_rate": RATE,
     "gsn_learning_rate": RATE,
     "gsn_max_weight": UNIT,
-    "gsn_max_signals": OneOf(("both", "grounding", "maximising")),
+    "gsn_max_signals": OneOf(GSN_MAX_SIGNALS),
     "gsn_max_explore_messages": Flag(),
     "buffer_size": SIZE,
     "learning_starts": Range(0, whole=True),
