@@ -19,7 +19,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from envs.registry import TASKS, task_ids
 from sb3_comm.wrappers.batched_vec_env import BatchedTwoAgentVecEnv
 
-__all__ = ["TASK_IDS", "make_comm_vec_env", "register_envs"]
+__all__ = ["FOREIGN_IDS", "TASK_IDS", "make_comm_vec_env", "register_envs"]
 
 TASK_IDS: tuple[str, ...] = task_ids()
 """Gymnasium ids of the communication tasks (the keys of :data:`envs.registry.TASKS`)."""
@@ -27,11 +27,17 @@ TASK_IDS: tuple[str, ...] = task_ids()
 _ENTRY_POINT = "sb3_comm.wrappers.two_agent:make_task_env"
 
 
+FOREIGN_IDS: tuple[str, ...] = ("MPESimpleReference-v0",)
+"""Gymnasium ids of benchmarks from outside the project (their packages are optional extras)."""
+
+
 def register_envs() -> None:
-    """Register the task ids with Gymnasium (idempotent)."""
+    """Register the task ids, and the foreign benchmarks' ids, with Gymnasium (idempotent)."""
     for env_id in TASKS:
         if env_id not in gym.registry:
             gym.register(env_id, entry_point=_ENTRY_POINT, kwargs={"task": env_id})
+    if "MPESimpleReference-v0" not in gym.registry:  # mpe2's simple_reference, own channel silenced
+        gym.register("MPESimpleReference-v0", entry_point="envs.simple_reference:simple_reference_env")
 
 
 def make_comm_vec_env(

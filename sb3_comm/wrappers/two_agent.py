@@ -11,6 +11,12 @@ step. If the ParallelEnv already carries a channel (it has a ``channel_size`` at
 the outgoing message from the last entries of each action and puts the received message in the
 last entries of each observation), the wrapper uses it; otherwise the wrapper adds one.
 
+An environment with a channel of its own that the wrapper should not use (MPE's
+``simple_reference``, say) is opened with ``silence=NativeChannel(observation=..., action=...)``
+(:mod:`sb3_comm.wrappers.silence`): its said action entries are set to a constant, its heard
+observation entries are dropped from the rows, so that messages pass only through the wrapper's
+channel.
+
 SB3 needs one scalar reward per environment: the wrapper returns the team's mean reward and puts
 each agent's own reward in ``info["agent_rewards"]`` (what :class:`sb3_comm.CommDDPG` learns from).
 """
@@ -25,6 +31,7 @@ from gymnasium import spaces
 
 from sb3_comm.common.layout import CommLayout, HybridActionLayout
 from sb3_comm.common.validation import check_observation
+from sb3_comm.wrappers.silence import NativeChannel, SilenceNativeChannel
 
 __all__ = ["RowCodec", "TwoAgentEnv", "check_action", "make_task_env"]
 
@@ -123,6 +130,11 @@ class RowCodec:
         )
 
 
+def _copy_infos(infos: dict[str, Any]) -> dict[str, Any]:
+    """Per-agent infos in new dicts: some ParallelEnvs (mpe2) return the same objects every step."""
+    return {agent: dict(value) if isinstance(value, dict) else value for agent, value in infos.items()}
+
+
 def _env_channel_size(env: Any) -> int:
     return int(getattr(env, "channel_size", 0) or 0)
 
@@ -133,11 +145,21 @@ class TwoAgentEnv(gym.Env):
     :param env: a PettingZoo ``ParallelEnv`` with exactly two agents and 1-D ``Box`` spaces.
     :param channel_size: message size. If ``env`` carries its own channel it must match (or be
         None); otherwise the wrapper adds a channel of this size (required).
+    :param silence: the environment's own communication entries, to be closed: one
+        :class:`~sb3_comm.wrappers.silence.NativeChannel` for both agents or a dict by agent name.
+        The said action entries are set to its ``action_fill`` and removed from the action rows;
+        the heard observation entries are removed from the observation rows. None (default) keeps
+        every entry. Not accepted for an environment whose channel the wrapper itself uses.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 10}
 
-    def __init__(self, env: Any, channel_size: int | None = None) -> None:
+    def __init__(
+        self,
+        env: Any,
+        channel_size: int | None = None,
+        silence: NativeChannel | dict[str, NativeChannel] | None = None,
+    ) -> None:
         super().__init__()
         agents = tuple(getattr(env, "possible_agents", ()))
         if len(agents) != 2:
@@ -154,9 +176,17 @@ class TwoAgentEnv(gym.Env):
                         f"TwoAgentEnv accepts 1-D Box spaces only; the {kind} space of agent "
                         f"{agent!r} is {space}"
                     )
+        env_channel = _env_channel_size(env)
+        if silence is not None and env_channel:
+            raise ValueError(
+                f"silence is for an environment's own channel that the wrapper does not use; this "
+                f"environment's channel (channel_size={env_channel}) is the wrapper's message channel"
+            )
+        self.silenced = silence is not None
+        if silence is not None:
+            env = SilenceNativeChannel(env, silence)
         self.env = env
         self.agent_names = agents
-        env_channel = _env_channel_size(env)
         if env_channel:
             if channel_size is not None and channel_size != env_channel:
                 raise ValueError(
@@ -175,12 +205,21 @@ class TwoAgentEnv(gym.Env):
         strip = channel if self.env_carries_channel else 0
         obs_spaces = [env.observation_space(a) for a in agents]
         act_spaces = [env.action_space(a) for a in agents]
-        self.codec = RowCodec(
-            [s.shape[0] - strip for s in obs_spaces], [s.shape[0] - strip for s in act_spaces], channel
-        )
+        # Entries of each agent's own observation and action that reach the rows.
+        self._obs_keep = [np.arange(s.shape[0] - strip) for s in obs_spaces]
+        self._act_keep = [np.arange(s.shape[0] - strip) for s in act_spaces]
+        self._act_template = [np.zeros(s.shape[0], dtype=np.float32) for s in act_spaces]
+        if self.silenced:
+            for i, agent in enumerate(agents):
+                hushed = env.channels.get(agent)
+                if hushed is not None:
+                    self._obs_keep[i] = hushed.kept(obs_spaces[i].shape[0], "observation")
+                    self._act_keep[i] = hushed.kept(act_spaces[i].shape[0], "action")
+                    self._act_template[i][list(hushed.action)] = hushed.action_fill
+        self.codec = RowCodec([k.size for k in self._obs_keep], [k.size for k in self._act_keep], channel)
         self.observation_space, self.action_space = self.codec.spaces(
-            [(s.low[: s.shape[0] - strip], s.high[: s.shape[0] - strip]) for s in obs_spaces],
-            [(s.low[: s.shape[0] - strip], s.high[: s.shape[0] - strip]) for s in act_spaces],
+            [(s.low[k], s.high[k]) for s, k in zip(obs_spaces, self._obs_keep, strict=True)],
+            [(s.low[k], s.high[k]) for s, k in zip(act_spaces, self._act_keep, strict=True)],
         )
         self.comm_layout = self.codec.layout(
             agents, HybridActionLayout.from_dict(getattr(env, "metadata", {}).get("hybrid_action"))
@@ -197,7 +236,7 @@ class TwoAgentEnv(gym.Env):
             features = [r[None, : r.shape[0] - n] for r in rows]
             messages = np.stack([r[r.shape[0] - n :] for r in rows])[None]
         else:
-            features = [r[None] for r in rows]
+            features = [r[None, keep] for r, keep in zip(rows, self._obs_keep, strict=True)]
             messages = self._inbox[None]
         rows = self.codec.observations(features, messages)[0]
         check_observation(rows, self.agent_names)  # NaN from the environment: blame it, not the actions
@@ -212,7 +251,7 @@ class TwoAgentEnv(gym.Env):
         self._inbox[:] = 0.0
         self._returns[:] = 0.0
         self._length = 0
-        return self._assemble(obs), {"agent_infos": infos}
+        return self._assemble(obs), {"agent_infos": _copy_infos(infos)}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Step both agents; the outgoing messages reach the teammate at the next step."""
@@ -222,7 +261,14 @@ class TwoAgentEnv(gym.Env):
         for i, agent in enumerate(self.agent_names):
             own, message = self.codec.split_action(action, i)
             outgoing[i] = message
-            actions[agent] = np.concatenate([own, message]) if self.env_carries_channel else own
+            if self.env_carries_channel:
+                actions[agent] = np.concatenate([own, message])
+            elif self.silenced:
+                full = self._act_template[i].copy()
+                full[self._act_keep[i]] = own
+                actions[agent] = full
+            else:
+                actions[agent] = own
         obs, rewards, terminations, truncations, infos = self.env.step(actions)
         self._inbox = outgoing[::-1].copy()  # agent 0 hears agent 1 and vice versa
         agent_rewards = np.array([rewards[a] for a in self.agent_names], dtype=np.float32)
@@ -230,7 +276,7 @@ class TwoAgentEnv(gym.Env):
         self._length += 1
         terminated = any(bool(terminations[a]) for a in self.agent_names)
         truncated = any(bool(truncations[a]) for a in self.agent_names) and not terminated
-        info: dict[str, Any] = {"agent_rewards": agent_rewards, "agent_infos": infos}
+        info: dict[str, Any] = {"agent_rewards": agent_rewards, "agent_infos": _copy_infos(infos)}
         if terminated or truncated:
             info["agent_returns"] = self._returns.astype(np.float32)
         return self._assemble(obs), float(agent_rewards.mean()), terminated, truncated, info

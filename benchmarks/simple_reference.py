@@ -1,0 +1,289 @@
+"""A foreign benchmark: every method, with the constructor's defaults, on mpe2's simple_reference.
+
+The task (``MPESimpleReference-v0``, :mod:`envs.simple_reference`) was never used to tune
+sb3-comm. Its own channel is silenced, so the target landmark can pass between the agents only
+through our channel (size ``--channel-size``). Each (method, seed) trains
+``CommDDPG(method, env, seed=seed)`` with no other hyperparameter, on ``--n-envs`` games, for
+``--timesteps`` environment steps; every ``--eval-freq`` steps the deterministic team plays 100
+evaluation games (seed 10,000), and at the end 100 other games (seed 20,000) with the messages
+intact, zeroed and shuffled.
+
+The references play the same final games, and 1,000 more for precision: the full-information
+oracle, the best scripted policy without communication (the landmarks' geometric median) and
+random actions. The figure that counts is the fraction of the communication gap closed,
+``(method − no-comm) / (oracle − no-comm)``, per seed; the summary gives its mean and rliable's
+IQM with the 95 % stratified-bootstrap interval. Goal: a method that closes ≥ 0.7 of the gap,
+with a message ablation that shows the gain comes from the messages.
+
+Runs are resumable: each finished run is one JSON file under ``--runs-dir``, and a run whose file
+exists is not run again. The summary (``benchmarks/results/<name>.{json,md}`` and a curve figure)
+is made from all the files present.
+
+    python benchmarks/simple_reference.py --methods NONE RIAL TCG GSN --seeds 0 1 2 3 4
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing as mp
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import RESULTS_DIR, write_results
+
+from sb3_comm.results import to_jsonable, write_json
+
+ENV_ID = "MPESimpleReference-v0"
+CURVE_SEED = 10_000
+FINAL_SEED = 20_000
+REFERENCE_SEED = 30_000
+
+
+def _vec_env(n: int, seed: int, channel_size: int) -> Any:
+    from sb3_comm import make_comm_vec_env
+
+    return make_comm_vec_env(ENV_ID, n_envs=n, seed=seed, env_kwargs={"channel_size": channel_size})
+
+
+def references(channel_size: int, episodes: int, seed: int) -> dict[str, float]:
+    """Mean team return of each scripted reference over ``episodes`` games."""
+    from envs.simple_reference import NoCommTeam, OracleTeam, RandomTeam
+    from sb3_comm.evaluation import evaluate_team
+
+    out = {}
+    for name, team in (("oracle", OracleTeam), ("no_comm", NoCommTeam), ("random", RandomTeam)):
+        env = _vec_env(episodes, seed, channel_size)
+        out[name] = evaluate_team(team(env, seed=seed), env).mean
+        env.close()
+    return out
+
+
+def run_one(job: dict[str, Any]) -> dict[str, Any]:
+    """Train one (method, seed) with the constructor's defaults; curve and final evaluations."""
+    import torch as th
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from sb3_comm import CommDDPG
+    from sb3_comm.evaluation import evaluate_team
+
+    th.set_num_threads(1)
+    method, seed, channel = job["method"], job["seed"], job["channel_size"]
+    curve_env = _vec_env(100, CURVE_SEED, channel)
+    curve: list[tuple[int, float]] = []
+    eval_seconds = [0.0]
+
+    class Curve(BaseCallback):
+        def __init__(self) -> None:
+            super().__init__()
+            self.next_at = job["eval_freq"]
+
+        def _on_step(self) -> bool:
+            if self.num_timesteps >= self.next_at:
+                began = time.perf_counter()
+                curve_env.seed(CURVE_SEED)  # the same 100 games at every point
+                curve.append((self.num_timesteps, evaluate_team(self.model, curve_env).mean))
+                eval_seconds[0] += time.perf_counter() - began
+                self.next_at += job["eval_freq"]
+            return True
+
+    env = _vec_env(job["n_envs"], seed, channel)
+    model = CommDDPG(method, env, seed=seed, device="cpu")
+    began = time.perf_counter()
+    model.learn(job["timesteps"], callback=Curve())
+    seconds = time.perf_counter() - began - eval_seconds[0]
+    final = {}
+    for ablation in ("none", "zero", "shuffle"):
+        final_env = _vec_env(100, FINAL_SEED, channel)
+        final[ablation] = evaluate_team(model, final_env, seed=FINAL_SEED, ablation=ablation).mean
+        final_env.close()
+    result = {
+        "method": method,
+        "seed": seed,
+        "timesteps": job["timesteps"],
+        "n_envs": job["n_envs"],
+        "channel_size": channel,
+        "train_seconds": seconds,
+        "curve": curve,
+        "final": final,
+    }
+    write_json(Path(job["runs_dir"]) / f"{method}_seed{seed}.json", result)
+    print(f"{method} seed {seed}: final {final['none']:.3f} ({seconds:.0f} s)", flush=True)
+    return result
+
+
+def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.Namespace) -> None:
+    """Tables of every seed, the gap fractions with mean/IQM and intervals, and the curve figure."""
+    from sb3_comm.analysis.stats import interval_estimates
+
+    final_refs = refs["final_games"]
+    gap = final_refs["oracle"] - final_refs["no_comm"]
+
+    def fraction(value: float) -> float:
+        return (value - final_refs["no_comm"]) / gap
+
+    methods = [m for m in args.methods if any(r["method"] == m for r in runs)]
+    per_method: dict[str, Any] = {}
+    rows = [
+        "| method | seed | final return | gap closed | zeroed messages | shuffled messages "
+        "| train time (s) |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for method in methods:
+        mine = sorted((r for r in runs if r["method"] == method), key=lambda r: r["seed"])
+        fractions = [fraction(r["final"]["none"]) for r in mine]
+        for r, f in zip(mine, fractions, strict=True):
+            rows.append(
+                f"| {method} | {r['seed']} | {r['final']['none']:.3f} | {f:.2f} | {r['final']['zero']:.3f} "
+                f"| {r['final']['shuffle']:.3f} | {r['train_seconds']:.0f} |"
+            )
+        per_method[method] = {
+            "seeds": [r["seed"] for r in mine],
+            "gap_closed": fractions,
+            "worst_gap_closed": min(fractions),
+            "gap_closed_estimates": interval_estimates(fractions),
+            "final_return": [r["final"]["none"] for r in mine],
+            "zeroed_gap_closed": [fraction(r["final"]["zero"]) for r in mine],
+            "shuffled_gap_closed": [fraction(r["final"]["shuffle"]) for r in mine],
+        }
+    summary = [
+        "",
+        "| method | seeds | gap closed: mean [95 % CI] | IQM [95 % CI] | worst seed | zeroed (mean) "
+        "| shuffled (mean) |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for method, s in per_method.items():
+        est = s["gap_closed_estimates"]
+        iqm = est.get("iqm")
+        iqm_text = f"{iqm['point']:.2f} [{iqm['low']:.2f}, {iqm['high']:.2f}]" if iqm else "— (< 5 seeds)"
+        m = est["mean"]
+        summary.append(
+            f"| {method} | {len(s['seeds'])} | {m['point']:.2f} [{m['low']:.2f}, {m['high']:.2f}] "
+            f"| {iqm_text} "
+            f"| {s['worst_gap_closed']:.2f} | {np.mean(s['zeroed_gap_closed']):.2f} "
+            f"| {np.mean(s['shuffled_gap_closed']):.2f} |"
+        )
+    figure = _plot(runs, methods, refs, args.name)
+    ref_text = (
+        f"\n\nReferences on the 100 final games (seed {FINAL_SEED}): oracle {final_refs['oracle']:.3f}, "
+        f"no-comm {final_refs['no_comm']:.3f}, random {final_refs['random']:.3f}; on "
+        f"{refs['episodes']} other games (seed {REFERENCE_SEED}): oracle {refs['many_games']['oracle']:.3f}, "
+        f"no-comm {refs['many_games']['no_comm']:.3f}, random {refs['many_games']['random']:.3f}. "
+        "*Gap closed* = (return − no-comm) / (oracle − no-comm) on the same final games: 0 is no better "
+        "than the scripted no-communication policy, 1 is the oracle. Zeroed/shuffled: the same "
+        "fraction with every received message set to 0, or taken from another game. Every model is "
+        f"`CommDDPG(method, env, seed=seed)` with no other argument, {args.n_envs} games, "
+        f"{args.timesteps:,} steps, channel size {args.channel_size}; one torch thread per run, "
+        f"{args.workers} runs at a time. Goal: a method whose gap closed is ≥ 0.7. "
+        f"Learning curves: [{figure.name}]({figure.name}) (mean and worst seed per method)."
+    )
+    write_results(
+        args.name,
+        {"args": vars(args), "references": refs, "methods": per_method, "runs": runs},
+        "\n".join(rows + summary) + ref_text,
+        title="mpe2 simple_reference (own channel silenced): every method with the constructor's defaults",
+    )
+
+
+def _plot(runs: list[dict[str, Any]], methods: list[str], refs: dict[str, Any], name: str) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for k, method in enumerate(methods):
+        curves = [np.asarray(r["curve"]) for r in runs if r["method"] == method and r["curve"]]
+        if not curves:
+            continue
+        n = min(len(c) for c in curves)
+        steps = curves[0][:n, 0]
+        values = np.stack([c[:n, 1] for c in curves])
+        colour = f"C{k}"
+        ax.plot(steps, values.mean(axis=0), color=colour, label=f"{method} mean ({len(curves)} seeds)")
+        worst = values[:, -1].argmin()
+        ax.plot(steps, values[worst], color=colour, linestyle=":", label=f"{method} worst seed")
+    for ref, style in (("oracle", "--"), ("no_comm", "-."), ("random", ":")):
+        ax.axhline(refs["many_games"][ref], color="grey", linestyle=style, label=ref)
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("team return (100 evaluation games)")
+    ax.set_title("simple_reference, own channel silenced, constructor defaults")
+    ax.legend(fontsize=7, ncol=2)
+    path = RESULTS_DIR / f"{name}_curves.png"
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--methods", nargs="+", default=["NONE", "RIAL", "TCG", "GSN"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4])
+    parser.add_argument("--timesteps", type=int, default=200_000)
+    parser.add_argument("--n-envs", type=int, default=8)
+    parser.add_argument("--channel-size", type=int, default=4)
+    parser.add_argument("--eval-freq", type=int, default=20_000)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--reference-episodes", type=int, default=1000)
+    parser.add_argument(
+        "--runs-dir", default=None, help="one JSON per finished run (default: results/<name>_runs)"
+    )
+    parser.add_argument("--name", default="simple_reference")
+    parser.add_argument("--summary-only", action="store_true", help="summarise the runs present, train none")
+    args = parser.parse_args()
+    runs_dir = Path(args.runs_dir or RESULTS_DIR / f"{args.name}_runs")
+    runs_dir.mkdir(parents=True, exist_ok=True)
+
+    jobs = [
+        {
+            "method": m,
+            "seed": s,
+            "timesteps": args.timesteps,
+            "n_envs": args.n_envs,
+            "channel_size": args.channel_size,
+            "eval_freq": args.eval_freq,
+            "runs_dir": str(runs_dir),
+        }
+        for s in args.seeds
+        for m in args.methods
+        if not (runs_dir / f"{m}_seed{s}.json").exists()
+    ]
+    if jobs and not args.summary_only:
+        from sb3_comm.common.files import die_with_parent
+
+        with mp.get_context("spawn").Pool(
+            args.workers, initializer=die_with_parent, maxtasksperchild=1
+        ) as pool:
+            for _ in pool.imap_unordered(run_one, jobs):
+                pass
+
+    import json
+
+    runs = [
+        json.loads(p.read_text())
+        for p in sorted(runs_dir.glob("*_seed*.json"))
+        if json.loads(p.read_text())["timesteps"] == args.timesteps
+    ]
+    runs = [r for r in runs if r["method"] in args.methods and r["seed"] in args.seeds]
+    refs_path = runs_dir / f"references_{args.channel_size}.json"
+    if refs_path.exists():
+        refs = json.loads(refs_path.read_text())
+    else:
+        refs = {
+            "final_games": references(args.channel_size, 100, FINAL_SEED),
+            "many_games": references(args.channel_size, args.reference_episodes, REFERENCE_SEED),
+            "episodes": args.reference_episodes,
+        }
+        write_json(refs_path, to_jsonable(refs))
+    summarise(runs, refs, args)
+
+
+if __name__ == "__main__":
+    main()
