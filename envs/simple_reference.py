@@ -104,11 +104,15 @@ def simple_reference_env(
     return TwoAgentEnv(env, channel_size=channel_size, silence=SIMPLE_REFERENCE_CHANNEL if silence else None)
 
 
-def steer(relative: np.ndarray, velocity: np.ndarray, gain: float = 2.0, damping: float = 1.0) -> np.ndarray:
+def steer(relative: np.ndarray, velocity: np.ndarray, gain: float = 8.0, damping: float = 2.0) -> np.ndarray:
     """MPE movement actions ``(..., 5)`` that drive a point mass to ``relative`` (a PD controller).
 
     :param relative: target minus own position, ``(..., 2)``.
     :param velocity: own velocity, ``(..., 2)``.
+    :param gain: force per unit of distance; the default pair (8, 2) was the best of a grid
+        ``gain`` ∈ {2, 4, 8, 16} × ``damping`` ∈ {0.5, 1, 2, 4} on 100 games, for the oracle
+        (−5.83, against −7.96 with (2, 1)) and for the no-comm policy (−17.01) alike.
+    :param damping: force per unit of velocity.
     """
     force = np.clip(gain * relative - damping * velocity, -1.0, 1.0)
     action = np.zeros((*force.shape[:-1], 5), dtype=np.float32)

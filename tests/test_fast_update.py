@@ -56,7 +56,7 @@ def _reference_update(model: CommDDPG, ref, data, max_grad_norm: float) -> None:
 def test_one_fast_update_equals_the_reference(method: str) -> None:
     env = make_vec_env(coin_env, n_envs=2, seed=0)
     model = CommDDPG(
-        method, env, batch_size=16, learning_starts=20, seed=0, tau=0.05, max_grad_norm=0.5,
+        method, env, batch_size=16, learning_starts=20, seed=0, tau=0.05, max_grad_norm=0.5, mc_mixing=0.5,
         policy_kwargs={"net_arch": [16, 16]},
     )  # fmt: skip
     model.learn(60)

@@ -91,7 +91,10 @@ class CommDDPG(HybridDDPG):
     :param exploration_fraction: fraction of training over which ε is annealed linearly.
     :param gaussian_noise_std: standard deviation of the Gaussian exploration (scaled units).
     :param mc_mixing: β of the critic target ``y = β·G_t + (1 − β)·(r + γ Q'(s', μ'(s')))``
-        (reference code and default: 0.5; on Blind Soccer it is what made learning stable).
+        (reference code: 0.5, on Blind Soccer what made learning stable, and what its packaged
+        configuration uses; default: 0, the TD target: the Monte-Carlo return of an episode cut by
+        a time limit is summed as if the episode had ended, which biases the critic on tasks whose
+        episodes are mostly truncated, see ``benchmarks/results/simple_reference_defaults.md``).
     :param tcg_gain: scale of the teammate's gradient that trains TCG messages.
     :param channel_size: expected message size; must match the environment's (None: take it).
     :param share_parameters: one set of networks for both agents (role one-hot in the observation)
@@ -143,7 +146,7 @@ class CommDDPG(HybridDDPG):
         exploration_final_eps: float = 0.1,
         exploration_fraction: float = 0.2,
         gaussian_noise_std: float = 0.1,
-        mc_mixing: float = 0.5,
+        mc_mixing: float = 0.0,
         tcg_gain: float = 1.0,
         channel_size: int | None = None,
         share_parameters: bool = True,

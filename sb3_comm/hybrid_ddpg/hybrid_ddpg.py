@@ -119,7 +119,10 @@ class HybridDDPG(TD3):
     :param exploration_fraction: fraction of training over which ε is annealed linearly.
     :param gaussian_noise_std: standard deviation of the Gaussian exploration (scaled units).
     :param mc_mixing: β of the critic target ``y = β·G_t + (1 − β)·(r + γ Q'(s', μ'(s')))``
-        (reference code and default: 0.5).
+        (reference code: 0.5, what the packaged configurations use; default: 0, the TD target:
+        the Monte-Carlo return of an episode cut by a time limit is summed as if the episode had
+        ended, which biases the critic on tasks whose episodes are mostly truncated, see
+        ``benchmarks/results/simple_reference_defaults.md``).
     :param max_grad_norm: gradient clipping of actor and critic (reference: 10; None: no clipping).
     :param action_noise: optional SB3 action noise added on top of the exploration.
     :param replay_buffer_class: a :class:`MonteCarloReplayBuffer` subclass (None: that class).
@@ -158,7 +161,7 @@ class HybridDDPG(TD3):
         exploration_final_eps: float = 0.1,
         exploration_fraction: float = 0.2,
         gaussian_noise_std: float = 0.1,
-        mc_mixing: float = 0.5,
+        mc_mixing: float = 0.0,
         max_grad_norm: float | None = 10.0,
         action_noise: ActionNoise | None = None,
         replay_buffer_class: type[MonteCarloReplayBuffer] | None = None,
