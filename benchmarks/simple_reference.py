@@ -92,7 +92,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
             return True
 
     env = _vec_env(job["n_envs"], seed, channel)
-    model = CommDDPG(method, env, seed=seed, device="cpu")
+    model = CommDDPG(method, env, seed=seed, device="cpu", **job.get("params", {}))
     began = time.perf_counter()
     model.learn(job["timesteps"], callback=Curve())
     seconds = time.perf_counter() - began - eval_seconds[0]
@@ -107,6 +107,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
         "timesteps": job["timesteps"],
         "n_envs": job["n_envs"],
         "channel_size": channel,
+        "params": job.get("params", {}),
         "train_seconds": seconds,
         "curve": curve,
         "final": final,
@@ -176,10 +177,12 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
         "*Gap closed* = (return − no-comm) / (oracle − no-comm) on the same final games: 0 is no better "
         "than the scripted no-communication policy, 1 is the oracle. Zeroed/shuffled: the same "
         "fraction with every received message set to 0, or taken from another game. Every model is "
-        f"`CommDDPG(method, env, seed=seed)` with no other argument, {args.n_envs} games, "
+        f"`CommDDPG(method, env, seed=seed{''.join(f', {k}={v!r}' for k, v in _params(args).items())})` "
+        f"with no other argument, {args.n_envs} games, "
         f"{args.timesteps:,} steps, channel size {args.channel_size}; one torch thread per run, "
         f"{args.workers} runs at a time. Goal: a method whose gap closed is ≥ 0.7. "
-        f"Learning curves: [{figure.name}]({figure.name}) (mean and worst seed per method)."
+        f"Learning curves: [{figure.name}]({figure.name}) (mean, 95 % t-interval and the worst seed "
+        "per method)."
     )
     write_results(
         args.name,
@@ -189,35 +192,31 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
     )
 
 
+def _params(args: argparse.Namespace) -> dict[str, Any]:
+    import yaml
+
+    return {k: yaml.safe_load(v) for k, _, v in (item.partition("=") for item in args.params)}
+
+
 def _plot(runs: list[dict[str, Any]], methods: list[str], refs: dict[str, Any], name: str) -> Path:
-    import matplotlib
+    from sb3_comm.analysis.plots import plot_learning_curves
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for k, method in enumerate(methods):
-        curves = [np.asarray(r["curve"]) for r in runs if r["method"] == method and r["curve"]]
-        if not curves:
-            continue
-        n = min(len(c) for c in curves)
-        steps = curves[0][:n, 0]
-        values = np.stack([c[:n, 1] for c in curves])
-        colour = f"C{k}"
-        ax.plot(steps, values.mean(axis=0), color=colour, label=f"{method} mean ({len(curves)} seeds)")
-        worst = values[:, -1].argmin()
-        ax.plot(steps, values[worst], color=colour, linestyle=":", label=f"{method} worst seed")
-    for ref, style in (("oracle", "--"), ("no_comm", "-."), ("random", ":")):
-        ax.axhline(refs["many_games"][ref], color="grey", linestyle=style, label=ref)
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("team return (100 evaluation games)")
-    ax.set_title("simple_reference, own channel silenced, constructor defaults")
-    ax.legend(fontsize=7, ncol=2)
-    path = RESULTS_DIR / f"{name}_curves.png"
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    curves = {
+        method: [
+            (np.asarray(r["curve"])[:, 0], np.asarray(r["curve"])[:, 1])
+            for r in runs
+            if r["method"] == method and r["curve"]
+        ]
+        for method in methods
+    }
+    paths = plot_learning_curves(
+        curves,
+        RESULTS_DIR / f"{name}_curves",
+        title="simple_reference, own channel silenced, constructor defaults",
+        references={k: refs["many_games"][k] for k in ("oracle", "no_comm", "random")},
+        ylabel="team return (100 evaluation games)",
+    )
+    return paths[0]
 
 
 def main() -> None:
@@ -237,7 +236,18 @@ def main() -> None:
     )
     parser.add_argument("--name", default="simple_reference")
     parser.add_argument("--summary-only", action="store_true", help="summarise the runs present, train none")
+    parser.add_argument(
+        "--params", nargs="*", default=[], help="constructor arguments key=value (YAML values), else defaults"
+    )
     args = parser.parse_args()
+    import yaml
+
+    params = {}
+    for item in args.params:
+        key, sep, value = item.partition("=")
+        if not sep:
+            parser.error(f"--params takes key=value, got {item!r}")
+        params[key] = yaml.safe_load(value)
     runs_dir = Path(args.runs_dir or RESULTS_DIR / f"{args.name}_runs")
     runs_dir.mkdir(parents=True, exist_ok=True)
 
@@ -250,6 +260,7 @@ def main() -> None:
             "channel_size": args.channel_size,
             "eval_freq": args.eval_freq,
             "runs_dir": str(runs_dir),
+            "params": params,
         }
         for s in args.seeds
         for m in args.methods

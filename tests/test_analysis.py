@@ -376,3 +376,18 @@ def test_make_report_on_a_synthetic_experiment(tmp_path: Path, monkeypatch: pyte
     assert "## Beyond the paper" in markdown and "GSN-MAX solves" in markdown
     # GSN-MAX solves Blind Soccer here (0.59), yet "only GSN solves it" is about the paper's methods
     assert {c["id"]: c["verdict"] for c in third["claims"]}["C2"] == "reproduced"
+
+
+def test_learning_curves_show_the_worst_seed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from sb3_comm.analysis import plots
+
+    values = np.array([[0.0, 0.5, 0.9], [0.0, 0.8, 0.2], [0.0, 0.1, 0.2]])
+    assert plots.worst_seed(values) == 2  # last value ties with seed 1: the lower mean is worse
+    drawn = {}
+    monkeypatch.setattr(plots, "save_figure", lambda fig, stem: drawn.setdefault("fig", fig) and [])
+    steps = np.array([0, 10, 20])
+    curves = {"GSN": [(steps, v) for v in values], "NONE": [(steps, values[0])]}
+    plots.plot_learning_curves(curves, tmp_path / "c")
+    lines = {line.get_label(): line.get_ydata() for line in drawn["fig"].axes[0].lines}
+    np.testing.assert_array_equal(lines["GSN worst seed"], values[2])
+    assert "NONE worst seed" not in lines  # one seed: its curve is the mean

@@ -65,6 +65,13 @@ def _align(curves: Sequence[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray,
     return grid, np.stack([np.interp(grid, x, y) for x, y in curves])
 
 
+def worst_seed(values: np.ndarray) -> int:
+    """Index of the worst seed of ``(n_seeds, n_points)`` curves: the lowest last value, ties
+    broken by the lowest mean over the curve."""
+    values = np.asarray(values, dtype=np.float64)
+    return int(np.lexsort((values.mean(axis=1), values[:, -1]))[0])
+
+
 def plot_learning_curves(
     curves: Mapping[str, Sequence[tuple[np.ndarray, np.ndarray]]],
     stem: str | Path,
@@ -72,7 +79,8 @@ def plot_learning_curves(
     references: Mapping[str, float] | None = None,
     ylabel: str = "mean team return",
 ) -> list[Path]:
-    """Mean return over seeds against environment steps, with a 95% interval band per method.
+    """Mean return over seeds against environment steps, with a 95% interval band per method and,
+    with two or more seeds, the worst seed's own curve (dotted; :func:`worst_seed`).
 
     :param curves: per method, one ``(timesteps, returns)`` pair per seed.
     :param stem: output path without suffix.
@@ -91,6 +99,9 @@ def plot_learning_curves(
         color = METHOD_COLORS.get(method)
         ax.plot(grid, mean, color=color, label=f"{method} ({len(runs)} seeds)")
         ax.fill_between(grid, low, high, color=color, alpha=0.25, linewidth=0)
+        if len(runs) > 1:
+            worst = values[worst_seed(values)]
+            ax.plot(grid, worst, color=color, linestyle=":", label=f"{method} worst seed")
     styles = {"oracle": ("black", "--"), "random": ("gray", ":")}
     for name, value in (references or {}).items():
         if value is None:
