@@ -19,7 +19,10 @@ from gymnasium import spaces
 from stable_baselines3.common.buffers import BaseBuffer
 from stable_baselines3.common.vec_env import VecNormalize
 
-__all__ = ["MonteCarloReplayBuffer", "MonteCarloReplayBufferSamples"]
+__all__ = ["MC_TRUNCATED", "MonteCarloReplayBuffer", "MonteCarloReplayBufferSamples"]
+
+MC_TRUNCATED = ("sum", "skip")
+"""What a time-limit cut gives the Monte-Carlo returns of its episode (:class:`MonteCarloReplayBuffer`)."""
 
 
 class MonteCarloReplayBufferSamples(NamedTuple):
@@ -46,7 +49,14 @@ class MonteCarloReplayBuffer(BaseBuffer):
     :param store_mc_returns: keep Monte-Carlo returns (needed when β > 0).
     :param handle_timeout_termination: a truncated episode is not a terminal state (SB3 default).
     :param optimize_memory_usage: not supported (SB3 passes it; True raises).
+    :param mc_truncated: what an episode cut by a time limit (``TimeLimit.truncated``) gives its
+        transitions: ``"sum"`` (the reference code's way and the default) sums its rewards as if it
+        had ended there, a return biased towards 0 the closer the cut; ``"skip"`` gives them no
+        Monte-Carlo return, so that they train on the TD target alone (``mc_valid`` 0). Needs
+        ``handle_timeout_termination``.
     """
+
+    mc_truncated: str = "sum"  # buffers pickled before the option existed load with the old way
 
     def __init__(
         self,
@@ -59,9 +69,15 @@ class MonteCarloReplayBuffer(BaseBuffer):
         store_mc_returns: bool = False,
         handle_timeout_termination: bool = True,
         optimize_memory_usage: bool = False,
+        mc_truncated: str = "sum",
     ) -> None:
         if optimize_memory_usage:
             raise ValueError(f"{type(self).__name__} does not support optimize_memory_usage=True")
+        if mc_truncated not in MC_TRUNCATED:
+            raise ValueError(f"mc_truncated must be one of {list(MC_TRUNCATED)}, got {mc_truncated!r}")
+        if mc_truncated == "skip" and not handle_timeout_termination:
+            raise ValueError("mc_truncated='skip' needs handle_timeout_termination=True (the time limits)")
+        self.mc_truncated = mc_truncated
         super().__init__(buffer_size, observation_space, action_space, device, n_envs=n_envs)
         self.buffer_size = max(buffer_size // n_envs, 1)
         self.gamma = gamma
@@ -123,7 +139,9 @@ class MonteCarloReplayBuffer(BaseBuffer):
         """Fill the Monte-Carlo returns of every episode that ended at this step."""
         for env in range(self.n_envs):
             self._episode_positions[env].append(position)
-            if done[env]:
+            if done[env] and self.mc_truncated == "skip" and self.timeouts[position, env]:
+                self._episode_positions[env] = []  # cut by the time limit: TD target only
+            elif done[env]:
                 running = np.zeros(self.reward_width, dtype=np.float32)
                 for p in reversed(self._episode_positions[env]):
                     running = self.rewards[p, env] + self.gamma * running

@@ -1,0 +1,69 @@
+"""Monte-Carlo returns of the replay: episodes that end, and episodes cut by a time limit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from gymnasium import spaces
+from stable_baselines3.common.env_util import make_vec_env
+from toy_envs import coin_env
+
+from sb3_comm import CommDDPG
+from sb3_comm.common.buffers import MonteCarloReplayBuffer
+
+GAMMA = 0.9
+
+
+def _buffer(**kwargs) -> MonteCarloReplayBuffer:
+    box = spaces.Box(-1.0, 1.0, (2,), np.float32)
+    return MonteCarloReplayBuffer(
+        16, box, box, device="cpu", n_envs=2, gamma=GAMMA, store_mc_returns=True, **kwargs
+    )
+
+
+def _play(buffer: MonteCarloReplayBuffer) -> None:
+    """Three steps in two envs: env 0 terminates at the third, env 1 is cut by its time limit."""
+    for t, reward in enumerate([1.0, 2.0, 4.0]):
+        last = t == 2
+        infos = [{}, {"TimeLimit.truncated": last}]
+        buffer.add(
+            np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 2)), np.array([reward, reward]),
+            np.array([last, last]), infos,
+        )  # fmt: skip
+
+
+def test_sum_gives_every_ended_episode_its_discounted_return() -> None:
+    buffer = _buffer()
+    _play(buffer)
+    expected = [1 + GAMMA * 2 + GAMMA**2 * 4, 2 + GAMMA * 4, 4.0]
+    for env in (0, 1):  # the cut episode is summed as if it had ended (the reference code's way)
+        np.testing.assert_allclose(buffer.mc_returns[:3, env, 0], expected, rtol=1e-6)
+        np.testing.assert_array_equal(buffer.mc_valid[:3, env], 1.0)
+
+
+def test_skip_leaves_a_cut_episode_to_the_td_target() -> None:
+    buffer = _buffer(mc_truncated="skip")
+    _play(buffer)
+    np.testing.assert_array_equal(buffer.mc_valid[:3, 0], 1.0)  # terminated: a true return
+    np.testing.assert_allclose(buffer.mc_returns[2, 0, 0], 4.0)
+    np.testing.assert_array_equal(buffer.mc_valid[:3, 1], 0.0)  # cut: no Monte-Carlo return
+    # the next episode of env 1 starts afresh: nothing of the cut one is summed onto it
+    buffer.add(np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 2)), np.array([8.0, 8.0]),
+               np.array([True, True]), [{}, {}])  # fmt: skip
+    np.testing.assert_allclose(buffer.mc_returns[3, 1, 0], 8.0)
+    assert buffer.mc_valid[3, 1] == 1.0
+
+
+def test_bad_mc_truncated_is_a_clear_error() -> None:
+    with pytest.raises(ValueError, match=r"mc_truncated must be one of \['sum', 'skip'\]"):
+        _buffer(mc_truncated="bootstrap")
+    with pytest.raises(ValueError, match="needs handle_timeout_termination=True"):
+        _buffer(mc_truncated="skip", handle_timeout_termination=False)
+
+
+def test_the_option_reaches_the_model_buffer() -> None:
+    env = make_vec_env(coin_env, n_envs=2, seed=0)
+    model = CommDDPG("NONE", env, mc_mixing=0.5, replay_buffer_kwargs={"mc_truncated": "skip"}, seed=0)
+    model.learn(10)
+    assert model.replay_buffer.mc_truncated == "skip"
+    np.testing.assert_array_equal(model.replay_buffer.mc_valid[:5], 0.0)  # the coin game is cut at 4
