@@ -24,6 +24,15 @@ def test_packaged_configs_load(method: str, env_id: str) -> None:
     assert (settings["gamma"], settings["mc_mixing"]) == expected
 
 
+def test_every_packaged_configuration_pins_its_beta() -> None:
+    """The constructor's default beta changed (0.5 -> 0); no packaged run may follow it unnoticed."""
+    import yaml
+
+    for path in sorted(CONFIG_DIR.glob("*.yml")):
+        for env_id, entry in yaml.safe_load(path.read_text()).items():
+            assert "mc_mixing" in entry, f"{path.name}: {env_id} does not set mc_mixing"
+
+
 def test_gsn_max_has_one_configuration_for_both_tasks() -> None:
     """GSN-MAX's tasks differ only in gamma and the budget (issue: one configuration solves both)."""
     soccer = RunConfig.load("GSN-MAX", "BlindSoccer-v0")

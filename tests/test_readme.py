@@ -31,3 +31,14 @@ def test_readme_api_example_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     assert any((tmp_path / "runs" / "tb").rglob("events.out.tfevents.*"))
     printed = capsys.readouterr().out
     assert "'mean_return'" in printed and "'n_episodes': 100" in printed
+
+
+def test_readme_silence_example_runs() -> None:
+    """The README's example that closes an environment's own channel builds what it says."""
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
+    code = next(b for b in blocks if "silence=NativeChannel" in b)
+    namespace: dict = {}
+    exec(compile(code, str(README), "exec"), namespace)
+    env = namespace["env"]
+    assert env.observation_space.shape == (2, 11 + 2 + 4)  # 10 heard entries gone, our 4 added
+    assert env.action_space.shape == (2, 5 + 4)  # 10 said entries gone
