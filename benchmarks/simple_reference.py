@@ -184,6 +184,8 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
         f"Learning curves: [{figure.name}]({figure.name}) (mean, 95 % t-interval and the worst seed "
         "per method)."
     )
+    if args.note:
+        ref_text += f"\n\n{args.note}"
     write_results(
         args.name,
         {"args": vars(args), "references": refs, "methods": per_method, "runs": runs},
@@ -211,7 +213,7 @@ def _plot(runs: list[dict[str, Any]], methods: list[str], refs: dict[str, Any], 
     }
     paths = plot_learning_curves(
         curves,
-        RESULTS_DIR / f"{name}_curves",
+        RESULTS_DIR / f"{name.replace('.', '_')}_curves",  # no dot: it would read as a suffix
         title="simple_reference, own channel silenced, constructor defaults",
         references={k: refs["many_games"][k] for k in ("oracle", "no_comm", "random")},
         ylabel="team return (100 evaluation games)",
@@ -236,6 +238,7 @@ def main() -> None:
     )
     parser.add_argument("--name", default="simple_reference")
     parser.add_argument("--summary-only", action="store_true", help="summarise the runs present, train none")
+    parser.add_argument("--note", default="", help="a paragraph added to the Markdown summary")
     parser.add_argument(
         "--params", nargs="*", default=[], help="constructor arguments key=value (YAML values), else defaults"
     )

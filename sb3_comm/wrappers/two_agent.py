@@ -236,7 +236,10 @@ class TwoAgentEnv(gym.Env):
             features = [r[None, : r.shape[0] - n] for r in rows]
             messages = np.stack([r[r.shape[0] - n :] for r in rows])[None]
         else:
-            features = [r[None, keep] for r, keep in zip(rows, self._obs_keep, strict=True)]
+            if self.silenced:
+                features = [r[None, keep] for r, keep in zip(rows, self._obs_keep, strict=True)]
+            else:
+                features = [r[None] for r in rows]
             messages = self._inbox[None]
         rows = self.codec.observations(features, messages)[0]
         check_observation(rows, self.agent_names)  # NaN from the environment: blame it, not the actions
