@@ -1,6 +1,6 @@
 """A foreign benchmark: every method, with the constructor's defaults, on mpe2's simple_reference.
 
-The task (``MPESimpleReference-v0``, :mod:`envs.simple_reference`) was never used to tune
+The task (``MPESimpleReference-v0``, :mod:`sb3_comm.foreign.simple_reference`) was never used to tune
 sb3-comm. Its own channel is silenced, so the target landmark can pass between the agents only
 through our channel (size ``--channel-size``). Each (method, seed) trains
 ``CommDDPG(method, env, seed=seed)`` with no other hyperparameter, on ``--n-envs`` games, for
@@ -52,8 +52,8 @@ def _vec_env(n: int, seed: int, channel_size: int) -> Any:
 
 def references(channel_size: int, episodes: int, seed: int) -> dict[str, float]:
     """Mean team return of each scripted reference over ``episodes`` games."""
-    from envs.simple_reference import NoCommTeam, OracleTeam, RandomTeam
     from sb3_comm.evaluation import evaluate_team
+    from sb3_comm.foreign.simple_reference import NoCommTeam, OracleTeam, RandomTeam
 
     out = {}
     for name, team in (("oracle", OracleTeam), ("no_comm", NoCommTeam), ("random", RandomTeam)):

@@ -37,7 +37,9 @@ def register_envs() -> None:
         if env_id not in gym.registry:
             gym.register(env_id, entry_point=_ENTRY_POINT, kwargs={"task": env_id})
     if "MPESimpleReference-v0" not in gym.registry:  # mpe2's simple_reference, own channel silenced
-        gym.register("MPESimpleReference-v0", entry_point="envs.simple_reference:simple_reference_env")
+        gym.register(
+            "MPESimpleReference-v0", entry_point="sb3_comm.foreign.simple_reference:simple_reference_env"
+        )
 
 
 def make_comm_vec_env(

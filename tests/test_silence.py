@@ -11,7 +11,9 @@ from mpe2 import simple_reference_v3  # the mpe extra, part of dev: these tests 
 from stable_baselines3.common.vec_env import DummyVecEnv
 from toy_envs import CoinParallelEnv
 
-from envs.simple_reference import (
+from sb3_comm import CommDDPG, make_comm_vec_env
+from sb3_comm.evaluation import evaluate_team
+from sb3_comm.foreign.simple_reference import (
     SIMPLE_REFERENCE_CHANNEL,
     NativeChannelTeam,
     NoCommTeam,
@@ -19,8 +21,6 @@ from envs.simple_reference import (
     RandomTeam,
     simple_reference_env,
 )
-from sb3_comm import CommDDPG, make_comm_vec_env
-from sb3_comm.evaluation import evaluate_team
 from sb3_comm.wrappers import NativeChannel, SilenceNativeChannel, TwoAgentEnv
 
 GAMES = 40
