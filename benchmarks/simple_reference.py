@@ -36,9 +36,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import RESULTS_DIR, write_results
 
+from sb3_comm.foreign.simple_reference import ENV_ID
 from sb3_comm.results import to_jsonable, write_json
 
-ENV_ID = "MPESimpleReference-v0"
 CURVE_SEED = 10_000
 FINAL_SEED = 20_000
 REFERENCE_SEED = 30_000
@@ -169,6 +169,7 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
             f"| {np.mean(s['shuffled_gap_closed']):.2f} |"
         )
     figure = _plot(runs, methods, refs, args.name)
+    extra = "".join(f", {k}={v!r}" for k, v in args.constructor_params.items())
     ref_text = (
         f"\n\nReferences on the 100 final games (seed {FINAL_SEED}): oracle {final_refs['oracle']:.3f}, "
         f"no-comm {final_refs['no_comm']:.3f}, random {final_refs['random']:.3f}; on "
@@ -177,7 +178,7 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
         "*Gap closed* = (return − no-comm) / (oracle − no-comm) on the same final games: 0 is no better "
         "than the scripted no-communication policy, 1 is the oracle. Zeroed/shuffled: the same "
         "fraction with every received message set to 0, or taken from another game. Every model is "
-        f"`CommDDPG(method, env, seed=seed{''.join(f', {k}={v!r}' for k, v in _params(args).items())})` "
+        f"`CommDDPG(method, env, seed=seed{extra})` "
         f"with no other argument, {args.n_envs} games, "
         f"{args.timesteps:,} steps, channel size {args.channel_size}; one torch thread per run, "
         f"{args.workers} runs at a time. Goal: a method whose gap closed is ≥ 0.7. "
@@ -192,12 +193,6 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
         "\n".join(rows + summary) + ref_text,
         title="mpe2 simple_reference (own channel silenced): every method with the constructor's defaults",
     )
-
-
-def _params(args: argparse.Namespace) -> dict[str, Any]:
-    import yaml
-
-    return {k: yaml.safe_load(v) for k, _, v in (item.partition("=") for item in args.params)}
 
 
 def _plot(runs: list[dict[str, Any]], methods: list[str], refs: dict[str, Any], name: str) -> Path:
@@ -251,6 +246,7 @@ def main() -> None:
         if not sep:
             parser.error(f"--params takes key=value, got {item!r}")
         params[key] = yaml.safe_load(value)
+    args.constructor_params = params
     runs_dir = Path(args.runs_dir or RESULTS_DIR / f"{args.name}_runs")
     runs_dir.mkdir(parents=True, exist_ok=True)
 
@@ -280,11 +276,8 @@ def main() -> None:
 
     import json
 
-    runs = [
-        json.loads(p.read_text())
-        for p in sorted(runs_dir.glob("*_seed*.json"))
-        if json.loads(p.read_text())["timesteps"] == args.timesteps
-    ]
+    runs = [json.loads(p.read_text()) for p in sorted(runs_dir.glob("*_seed*.json"))]
+    runs = [r for r in runs if r["timesteps"] == args.timesteps]
     runs = [r for r in runs if r["method"] in args.methods and r["seed"] in args.seeds]
     refs_path = runs_dir / f"references_{args.channel_size}.json"
     if refs_path.exists():

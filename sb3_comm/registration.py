@@ -27,7 +27,11 @@ TASK_IDS: tuple[str, ...] = task_ids()
 _ENTRY_POINT = "sb3_comm.wrappers.two_agent:make_task_env"
 
 
-FOREIGN_IDS: tuple[str, ...] = ("MPESimpleReference-v0",)
+_FOREIGN_ENTRY_POINTS = {
+    "MPESimpleReference-v0": "sb3_comm.foreign.simple_reference:simple_reference_env",  # own channel silenced
+}
+
+FOREIGN_IDS: tuple[str, ...] = tuple(_FOREIGN_ENTRY_POINTS)
 """Gymnasium ids of benchmarks from outside the project (their packages are optional extras)."""
 
 
@@ -36,10 +40,9 @@ def register_envs() -> None:
     for env_id in TASKS:
         if env_id not in gym.registry:
             gym.register(env_id, entry_point=_ENTRY_POINT, kwargs={"task": env_id})
-    if "MPESimpleReference-v0" not in gym.registry:  # mpe2's simple_reference, own channel silenced
-        gym.register(
-            "MPESimpleReference-v0", entry_point="sb3_comm.foreign.simple_reference:simple_reference_env"
-        )
+    for env_id, entry_point in _FOREIGN_ENTRY_POINTS.items():
+        if env_id not in gym.registry:
+            gym.register(env_id, entry_point=entry_point)
 
 
 def make_comm_vec_env(

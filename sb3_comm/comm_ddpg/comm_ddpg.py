@@ -94,7 +94,7 @@ class CommDDPG(HybridDDPG):
         (reference code: 0.5, on Blind Soccer what made learning stable, and what its packaged
         configuration uses; default: 0, the TD target: the Monte-Carlo return of an episode cut by
         a time limit is summed as if the episode had ended, which biases the critic on tasks whose
-        episodes are mostly truncated, see ``benchmarks/results/simple_reference_defaults.md``).
+        episodes are mostly truncated, see ``benchmarks/results/simple_reference_beta0.5.md``).
     :param tcg_gain: scale of the teammate's gradient that trains TCG messages.
     :param channel_size: expected message size; must match the environment's (None: take it).
     :param share_parameters: one set of networks for both agents (role one-hot in the observation)

@@ -140,7 +140,6 @@ class _ScriptedTeam:
         layout = env.get_attr("comm_layout", indices=[0])[0] if hasattr(env, "get_attr") else env.comm_layout
         space = env.action_space
         self.action_dim = int(layout.action_dim)
-        self.channel_size = int(layout.channel_size)
         self.low, self.high = space.low, space.high
         self.rng = np.random.default_rng(seed)
 

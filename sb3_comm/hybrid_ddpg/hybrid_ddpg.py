@@ -122,7 +122,7 @@ class HybridDDPG(TD3):
         (reference code: 0.5, what the packaged configurations use; default: 0, the TD target:
         the Monte-Carlo return of an episode cut by a time limit is summed as if the episode had
         ended, which biases the critic on tasks whose episodes are mostly truncated, see
-        ``benchmarks/results/simple_reference_defaults.md``).
+        ``benchmarks/results/simple_reference_beta0.5.md``).
     :param max_grad_norm: gradient clipping of actor and critic (reference: 10; None: no clipping).
     :param action_noise: optional SB3 action noise added on top of the exploration.
     :param replay_buffer_class: a :class:`MonteCarloReplayBuffer` subclass (None: that class).

@@ -208,14 +208,13 @@ class TwoAgentEnv(gym.Env):
         # Entries of each agent's own observation and action that reach the rows.
         self._obs_keep = [np.arange(s.shape[0] - strip) for s in obs_spaces]
         self._act_keep = [np.arange(s.shape[0] - strip) for s in act_spaces]
-        self._act_template = [np.zeros(s.shape[0], dtype=np.float32) for s in act_spaces]
+        self._act_sizes = [s.shape[0] for s in act_spaces]
         if self.silenced:
             for i, agent in enumerate(agents):
                 hushed = env.channels.get(agent)
                 if hushed is not None:
                     self._obs_keep[i] = hushed.kept(obs_spaces[i].shape[0], "observation")
                     self._act_keep[i] = hushed.kept(act_spaces[i].shape[0], "action")
-                    self._act_template[i][list(hushed.action)] = hushed.action_fill
         self.codec = RowCodec([k.size for k in self._obs_keep], [k.size for k in self._act_keep], channel)
         self.observation_space, self.action_space = self.codec.spaces(
             [(s.low[k], s.high[k]) for s, k in zip(obs_spaces, self._obs_keep, strict=True)],
@@ -267,7 +266,7 @@ class TwoAgentEnv(gym.Env):
             if self.env_carries_channel:
                 actions[agent] = np.concatenate([own, message])
             elif self.silenced:
-                full = self._act_template[i].copy()
+                full = np.zeros(self._act_sizes[i], dtype=np.float32)  # SilenceNativeChannel fills the rest
                 full[self._act_keep[i]] = own
                 actions[agent] = full
             else:
