@@ -109,9 +109,9 @@ def steer(relative: np.ndarray, velocity: np.ndarray, gain: float = 8.0, damping
 
     :param relative: target minus own position, ``(..., 2)``.
     :param velocity: own velocity, ``(..., 2)``.
-    :param gain: force per unit of distance; the default pair (8, 2) was the best of a grid
-        ``gain`` ∈ {2, 4, 8, 16} × ``damping`` ∈ {0.5, 1, 2, 4} on 100 games, for the oracle
-        (−5.83, against −7.96 with (2, 1)) and for the no-comm policy (−17.01) alike.
+    :param gain: force per unit of distance; the default pair (8, 2) was the best of a one-off
+        grid ``gain`` ∈ {2, 4, 8, 16} × ``damping`` ∈ {0.5, 1, 2, 4} on 100 games, for the oracle
+        and the no-comm policy alike (not kept in ``benchmarks/results``).
     :param damping: force per unit of velocity.
     """
     force = np.clip(gain * relative - damping * velocity, -1.0, 1.0)
