@@ -4,6 +4,7 @@ lists) against a straightforward reference implementation of the same DDPG updat
 from __future__ import annotations
 
 import copy
+import threading
 
 import pytest
 import torch as th
@@ -71,3 +72,76 @@ def test_one_fast_update_equals_the_reference(method: str) -> None:
         th.testing.assert_close(fast, slow, rtol=1e-5, atol=1e-6, msg=lambda m, n=name: f"{n}: {m}")
         moved += 1
     assert moved > 8
+
+
+def test_one_gsn_update_beside_the_agents_equals_the_reference(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A GSN update run on the second thread, beside the agents' update, is the plain regression
+    step of paper eq. 2: MSE on the standardised teammate reward, clipping, Adam."""
+    from sb3_comm.comm_ddpg import gsn as gsn_module
+
+    monkeypatch.setattr(gsn_module, "spare_core", lambda: True)
+    env = make_vec_env(coin_env, n_envs=2, seed=0)
+    model = CommDDPG(
+        "GSN", env, batch_size=16, learning_starts=20, seed=0, max_grad_norm=0.5, gsn_learning_rate=1e-3,
+        policy_kwargs={"net_arch": [16, 16], "gsn_net_arch": [8], "gsn_reward_net_arch": [8]},
+    )  # fmt: skip
+    model.learn(60)
+    callback = model.gsn_callback
+    assert callback is not None and callback.uses_thread()
+    data = model.replay_buffer.sample(16)
+    model.replay_buffer.sample = lambda *args, **kwargs: data  # the same batch for GSN and agents
+    ref = copy.deepcopy(model.policy.gsn)
+    optimizer = _plain_adam(ref, model.policy.gsn.optimizer)
+    for group in optimizer.param_groups:
+        group["lr"] = callback.lr_schedule(model.progress_remaining)
+    ref.train()
+    teammate_reward = data.rewards.flip(1)
+    batch_var, batch_mean = teammate_reward.var(unbiased=False), teammate_reward.mean()
+    count = ref.reward_count + teammate_reward.numel()
+    mean = ref.reward_mean + (batch_mean - ref.reward_mean) * teammate_reward.numel() / count
+    delta = batch_mean - ref.reward_mean
+    var = (
+        ref.reward_var * ref.reward_count
+        + batch_var * teammate_reward.numel()
+        + delta**2 * ref.reward_count * teammate_reward.numel() / count
+    ) / count
+    target = (teammate_reward - mean) / var.sqrt()
+    ref.reward_mean.copy_(mean), ref.reward_var.copy_(var), ref.reward_count.copy_(count)
+    messages = th.tanh(ref.message_extractor(data.observations))
+    features = th.cat([messages, data.actions.flip(1)[..., : ref.teammate_action_dim]], dim=-1)
+    loss = F.mse_loss(ref.reward_model(features).squeeze(-1), target)
+    optimizer.zero_grad()
+    loss.backward()
+    th.nn.utils.clip_grad_norm_(list(ref.parameters()), 0.5, foreach=False)
+    optimizer.step()
+
+    threads = []
+    updates = callback._updates
+    monkeypatch.setattr(
+        callback, "_updates", lambda b: (threads.append(threading.current_thread()), updates(b))[1]
+    )
+    model._in_learn = True  # as inside learn(): train() brackets the agents' update with the GSN's
+    model.train(gradient_steps=1, batch_size=16)
+    assert threads and threads[0] is not threading.main_thread()
+    for (name, fast), slow in zip(
+        model.policy.gsn.state_dict().items(), ref.state_dict().values(), strict=True
+    ):
+        th.testing.assert_close(fast, slow, rtol=1e-5, atol=1e-6, msg=lambda m, n=name: f"{n}: {m}")
+
+
+def test_gsn_beside_the_agents_trains_the_same_model_as_after_them(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The thread changes the time only: the same seed gives the same parameters, bit for bit."""
+    from sb3_comm.comm_ddpg import gsn as gsn_module
+
+    states = {}
+    for beside in (True, False):
+        monkeypatch.setattr(gsn_module, "spare_core", lambda beside=beside: beside)
+        env = make_vec_env(coin_env, n_envs=2, seed=0)
+        model = CommDDPG(
+            "GSN", env, batch_size=16, learning_starts=20, seed=0, policy_kwargs={"net_arch": [16]}
+        )
+        model.learn(200)
+        assert model.gsn_callback.n_updates == model.n_updates > 0
+        states[beside] = model.policy.state_dict()
+    for name, tensor in states[True].items():
+        assert th.equal(tensor, states[False][name]), name

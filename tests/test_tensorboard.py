@@ -115,7 +115,7 @@ def test_plain_learn_logs_every_log_interval_steps(tmp_path: Path) -> None:
     events = _events(tmp_path)
     assert _steps(events, "rollout/exploration_rate") == [48, 96, 144, 192, 240]
     assert _steps(events, "tcg/grad_norm") == [48, 96, 144, 192, 240]
-    assert "time/tcg_extra_ms" in events.Tags()["scalars"]
+    assert "time/agent_update_ms" in events.Tags()["scalars"]
 
 
 @pytest.mark.parametrize("bad", [-1, 2.5, "10", True])

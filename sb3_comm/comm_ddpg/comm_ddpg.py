@@ -26,7 +26,6 @@ that keeps both agents of a game together, the message channel, and the communic
 
 from __future__ import annotations
 
-import time
 from collections import deque
 from typing import Any, ClassVar, TypeVar
 
@@ -183,6 +182,7 @@ class CommDDPG(HybridDDPG):
         self.channel_size = channel_size
         self.share_parameters = share_parameters
         self.gsn_callback: GSNTrainingCallback | None = None
+        self._in_learn = False
         super().__init__(
             policy,
             env,
@@ -317,6 +317,19 @@ class CommDDPG(HybridDDPG):
         return callback
 
     # ------------------------------------------------------------------------------ train --
+    def train(self, gradient_steps: int, batch_size: int = 100) -> None:
+        """The agents' updates (:meth:`HybridDDPG.train <sb3_comm.HybridDDPG.train>`); inside
+        ``learn``, the GSN's matching updates too, beside them where a core is spare
+        (:meth:`GSNTrainingCallback.begin_updates`)."""
+        callback = self.gsn_callback if self._in_learn else None
+        if callback is not None:
+            callback.begin_updates(gradient_steps)
+        try:
+            super().train(gradient_steps, batch_size)
+        finally:
+            if callback is not None:
+                callback.end_updates()
+
     def actor_output_gradients(
         self, obs: th.Tensor, out: th.Tensor, next_obs: th.Tensor, dones: th.Tensor
     ) -> tuple[th.Tensor, th.Tensor]:
@@ -333,11 +346,9 @@ class CommDDPG(HybridDDPG):
         :param dones: ``(B, 1)`` terminal flags.
         :return: ``grad`` shaped like ``out`` and ``own_q`` ``(B, n_agents)``.
         """
-        grad, own_q = self.critic_action_gradients(obs, out)
-        began = time.perf_counter()
-        grad = self.policy.comm_method.actor_gradient(self.policy, grad, out, next_obs, dones, self.tcg_gain)
-        if isinstance(self.policy.comm_method, TCG):  # the receiver critic's pass: TCG's extra cost
-            self.train_log.add("time/tcg_extra_ms", 1000.0 * (time.perf_counter() - began))
+        grad, own_q = self.policy.comm_method.actor_gradients(
+            self.policy, obs, out, next_obs, dones, self.tcg_gain
+        )
         return self.invert_bounded_gradients(grad, out), own_q
 
     def teammate_message_gradients(self, out: th.Tensor, next_obs: th.Tensor, dones: th.Tensor) -> th.Tensor:
@@ -408,7 +419,8 @@ class CommDDPG(HybridDDPG):
 
     # ---------------------------------------------------------------------- save / load --
     def _excluded_save_params(self) -> list[str]:
-        return [*super()._excluded_save_params(), "gsn", "gsn_callback", "comm_layout", "_agent_returns"]
+        excluded = ["gsn", "gsn_callback", "comm_layout", "_agent_returns", "_in_learn"]
+        return [*super()._excluded_save_params(), *excluded]
 
     def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
         state_dicts, variables = super()._get_torch_save_params()
@@ -426,11 +438,15 @@ class CommDDPG(HybridDDPG):
         progress_bar: bool = False,
     ) -> SelfCommDDPG:
         """Train for ``total_timesteps`` environment steps (games × steps), as in SB3."""
-        return super().learn(
-            total_timesteps=total_timesteps,
-            callback=callback,
-            log_interval=log_interval,
-            tb_log_name=tb_log_name,
-            reset_num_timesteps=reset_num_timesteps,
-            progress_bar=progress_bar,
-        )
+        self._in_learn = True
+        try:
+            return super().learn(
+                total_timesteps=total_timesteps,
+                callback=callback,
+                log_interval=log_interval,
+                tb_log_name=tb_log_name,
+                reset_num_timesteps=reset_num_timesteps,
+                progress_bar=progress_bar,
+            )
+        finally:
+            self._in_learn = False

@@ -8,13 +8,24 @@ learning rate (the paper used 1e-6).
 
 Design: the GSN is trained apart from the agents, by :class:`GSNTrainingCallback` (SB3's order of
 extension: a callback before a new algorithm). The callback owns the GSN's update and learning-rate
-schedule; the algorithm only builds the network (through the GSN method object) and adds the
-callback.
+schedule; the algorithm only builds the network (through the GSN method object), adds the
+callback, and, inside ``learn``, tells it when an agent update begins and ends
+(:meth:`GSNTrainingCallback.begin_updates`, :meth:`~GSNTrainingCallback.end_updates`).
+
+Speed: a GSN update reads only the GSN and its own batch, and an agent update never reads the GSN,
+so on a machine with a core to spare the GSN's updates run on a second thread *beside* the agents'
+updates of the same ``train`` call (torch releases the GIL in its kernels). The batches are drawn
+first, on the main thread, so a run is the same, to the bit, with the thread or without it.
+GSN-MAX's update reads the agents' critic, so it runs after theirs, as before.
 """
 
 from __future__ import annotations
 
+import os
 import time
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any
 
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
@@ -25,7 +36,21 @@ from torch.nn import functional as F
 
 from sb3_comm.common.networks import AgentMLPs, gradient_step
 
-__all__ = ["GSNTrainingCallback", "GroundedSemanticNetwork"]
+__all__ = ["BESIDE_AGENTS", "GSNTrainingCallback", "GroundedSemanticNetwork", "spare_core"]
+
+BESIDE_AGENTS = True
+"""Let GSN updates run on a second thread beside the agents' updates where a core is spare
+(:func:`spare_core`). The experiment runner turns it off in processes that share the cores with
+other runs."""
+
+
+def spare_core() -> bool:
+    """Whether this process may use a core that torch's intra-op threads leave free."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        cores = os.cpu_count() or 1
+    return cores > th.get_num_threads()
 
 
 class GroundedSemanticNetwork(nn.Module):
@@ -119,7 +144,8 @@ class GroundedSemanticNetwork(nn.Module):
 
     def update_reward_statistics(self, rewards: th.Tensor) -> None:
         """Merge a batch into the running mean and variance (parallel-moments formula)."""
-        batch_mean, batch_var, n = rewards.mean(), rewards.var(unbiased=False), rewards.numel()
+        batch_var, batch_mean = th.var_mean(rewards, correction=0)
+        n = rewards.numel()
         total = self.reward_count + n
         delta = batch_mean - self.reward_mean
         m2 = self.reward_var * self.reward_count + batch_var * n + delta**2 * self.reward_count * n / total
@@ -154,11 +180,15 @@ class GroundedSemanticNetwork(nn.Module):
 class GSNTrainingCallback(BaseCallback):
     """Trains the model's GSN with one update per agent update (paper §3, "Training").
 
-    :class:`~sb3_comm.CommDDPG` adds this callback itself when its method is ``"GSN"``. SB3 calls
-    ``train()`` between rollouts; at the start of the next rollout (and at the end of training)
-    this callback performs as many GSN updates as the agents had since, each on a freshly sampled
-    batch of joint tuples ``(o_sender, a_teammate, r_teammate)``. It reads only the model's public
-    ``policy.gsn``, ``replay_buffer``, ``n_updates`` and ``progress_remaining``.
+    :class:`~sb3_comm.CommDDPG` adds this callback itself when its method is ``"GSN"`` or
+    ``"GSN-MAX"``. Inside ``learn``, every ``train()`` call of the model brackets its agent updates
+    with :meth:`begin_updates` and :meth:`end_updates`: the callback draws as many batches of joint
+    tuples ``(o_sender, a_teammate, r_teammate)`` as the agents will make updates, and performs a
+    GSN update on each, beside the agents' updates on a second thread where a core is spare
+    (GSN), or after them (GSN-MAX, whose update reads their critic; or no core spare). Agent updates
+    made otherwise (``model.train()`` called outside ``learn``) are caught up at the start of the
+    next rollout and at the end of training. It reads only the model's public ``policy.gsn``,
+    ``replay_buffer``, ``n_updates``, ``progress_remaining`` and ``train_log``.
 
     For ``GSN-MAX`` (:class:`~sb3_comm.comm_ddpg.methods.GSNMAX`) each update gives the message
     extractor the normalised mix of the grounding regression's and the receivers' critic
@@ -171,6 +201,9 @@ class GSNTrainingCallback(BaseCallback):
     :param max_weight: GSN-MAX's weight ``w`` of the maximising signal (other methods: unused).
     :param signals: GSN-MAX's signals, one of ``GSN_MAX_SIGNALS`` (``"both"``, ``"grounding"``,
         ``"maximising"``); GSN always uses only the grounding.
+    :param beside_agents: run GSN updates on a second thread beside the agents' (None: where
+        :data:`BESIDE_AGENTS` allows it, a core is spare (:func:`spare_core`) and the update does
+        not read the agents' networks). The result is the same either way; only the time differs.
     :param verbose: 0 silent, 1 info.
     """
 
@@ -181,6 +214,7 @@ class GSNTrainingCallback(BaseCallback):
         max_grad_norm: float | None = 10.0,
         max_weight: float = 0.5,
         signals: str = "both",
+        beside_agents: bool | None = None,
         verbose: int = 0,
     ) -> None:
         super().__init__(verbose)
@@ -190,10 +224,14 @@ class GSNTrainingCallback(BaseCallback):
         self.batch_size = batch_size
         self.max_grad_norm = max_grad_norm
         self.signals = signals
+        self.beside_agents = beside_agents
         self.n_updates = 0
         """GSN updates performed by this callback."""
         self.agent_updates_matched = 0
         """The model's agent-update count that the GSN updates have caught up with."""
+        self._pool: ThreadPoolExecutor | None = None
+        self._running: Future | None = None
+        self._deferred: Callable[[], list[tuple[str, Any, int]]] | None = None
 
     def _init_callback(self) -> None:
         # Agent updates made before this callback joined (an earlier learn() call, a loaded
@@ -205,34 +243,94 @@ class GSNTrainingCallback(BaseCallback):
         self.train_gsn(pending)
 
     def _on_training_end(self) -> None:
+        self.end_updates()
         self._on_rollout_start()
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
 
     def _on_step(self) -> bool:
         return True
 
+    # ------------------------------------------------------------------------- updates --
+    def uses_thread(self) -> bool:
+        """Whether :meth:`begin_updates` runs the GSN's updates on a second thread."""
+        policy = self.model.policy  # type: ignore[union-attr]
+        reads_agents = getattr(policy.comm_method, "message_gradient", None) is not None  # GSN-MAX
+        if reads_agents:
+            return False
+        if self.beside_agents is not None:
+            return self.beside_agents
+        return BESIDE_AGENTS and spare_core()
+
+    def begin_updates(self, n_updates: int) -> None:
+        """Start the GSN updates that match ``n_updates`` agent updates about to be made.
+
+        Draws the batches now (so the random stream does not depend on threads), then runs the
+        updates on the second thread (:meth:`uses_thread`) or keeps them for :meth:`end_updates`.
+
+        :param n_updates: agent updates the model is about to make.
+        """
+        self.end_updates()  # an earlier begin without end (an exception in train)
+        batches = self._prepare(n_updates)
+        if not batches:
+            return
+        self.agent_updates_matched += n_updates
+        if self.uses_thread():
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(1, thread_name_prefix="gsn")
+            self._running = self._pool.submit(self._updates, batches)
+        else:
+            self._deferred = lambda: self._updates(batches)
+
+    def end_updates(self) -> None:
+        """Finish the updates started by :meth:`begin_updates` (wait for the thread, or run them)."""
+        if self._running is not None:
+            running, self._running = self._running, None
+            self._record(running.result())  # re-raises an error of the thread here
+        if self._deferred is not None:
+            deferred, self._deferred = self._deferred, None
+            self._record(deferred())
+
     def train_gsn(self, n_updates: int) -> None:
-        """``n_updates`` GSN regressions on uniformly sampled joint tuples (paper eq. 2).
+        """``n_updates`` GSN regressions on uniformly sampled joint tuples (paper eq. 2), now.
 
         :param n_updates: number of gradient steps.
         """
-        policy = self.model.policy  # type: ignore[union-attr]
-        gsn: GroundedSemanticNetwork | None = policy.gsn
+        batches = self._prepare(n_updates)
+        if batches:
+            self._record(self._updates(batches))
+            self.agent_updates_matched += n_updates
+
+    def _prepare(self, n_updates: int) -> list[Any]:
+        """Set the learning rate and draw the batches of ``n_updates`` updates (none: nothing to do)."""
+        gsn: GroundedSemanticNetwork | None = self.model.policy.gsn  # type: ignore[union-attr]
         replay_buffer = self.model.replay_buffer  # type: ignore[attr-defined]
         if gsn is None or n_updates <= 0 or replay_buffer is None:
-            return
-        began = time.perf_counter()
+            return []
         gsn.train(True)
         lr = self.lr_schedule(self.model.progress_remaining)  # type: ignore[attr-defined]
         for group in gsn.optimizer.param_groups:  # type: ignore[union-attr]
             group["lr"] = lr
+        self.model.train_log.add("gsn/learning_rate", lr)  # type: ignore[attr-defined]
+        return [replay_buffer.sample(self.batch_size) for _ in range(n_updates)]
+
+    def _record(self, values: list[tuple[str, Any, int]]) -> None:
         log = self.model.train_log  # type: ignore[attr-defined]
-        log.add("gsn/learning_rate", lr)
-        method = policy.comm_method
-        mixing = getattr(method, "message_gradient", None)  # GSN-MAX
+        for key, value, count in values:
+            log.add(key, value, count=count)
+
+    def _updates(self, batches: list[Any]) -> list[tuple[str, Any, int]]:
+        """One GSN update per batch; returns the values to log (the model's log is not touched
+        here: this may run on the second thread)."""
+        began = time.perf_counter()
+        policy = self.model.policy  # type: ignore[union-attr]
+        gsn: GroundedSemanticNetwork = policy.gsn
+        mixing = getattr(policy.comm_method, "message_gradient", None)  # GSN-MAX
         extractor = list(gsn.message_extractor.parameters())
         reward_model = list(gsn.reward_model.parameters())
-        for _ in range(n_updates):
-            data = replay_buffer.sample(self.batch_size)
+        values: list[tuple[str, Any, int]] = []
+        for data in batches:
             if mixing is None:  # GSN: the regression alone (paper eq. 2)
                 loss = gsn.loss(data.observations, data.actions, data.rewards)
                 gradient_step(gsn.optimizer, loss, self.max_grad_norm)  # type: ignore[arg-type]
@@ -252,12 +350,12 @@ class GSNTrainingCallback(BaseCallback):
                 if self.max_grad_norm:
                     th.nn.utils.clip_grad_norm_(trained, self.max_grad_norm, foreach=True)
                 gsn.optimizer.step()  # type: ignore[union-attr]
-                for key, value in stats.items():
-                    log.add(key, value)
-            log.add("gsn/loss", loss.detach())
+                values += [(key, value, 1) for key, value in stats.items()]
+            loss = loss.detach()
+            values.append(("gsn/loss", loss, 1))
             # the prediction error in reward units (the loss is standardised when normalising)
             scale = gsn.reward_std.detach() if gsn.normalize_rewards else 1.0
-            log.add("gsn/prediction_rmse", loss.detach().sqrt() * scale)
+            values.append(("gsn/prediction_rmse", loss.sqrt() * scale, 1))
             self.n_updates += 1
-        self.agent_updates_matched += n_updates
-        log.add("time/gsn_update_ms", 1000.0 * (time.perf_counter() - began), count=n_updates)
+        values.append(("time/gsn_update_ms", 1000.0 * (time.perf_counter() - began), len(batches)))
+        return values

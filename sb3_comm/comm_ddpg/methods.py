@@ -78,6 +78,31 @@ class CommMethod:
         """Outgoing messages ``(B, n_agents, n)`` for observations ``obs`` and actor outputs ``out``."""
         return obs.new_zeros((*obs.shape[:-1], policy.comm_layout.channel_size))
 
+    def actor_gradients(
+        self,
+        policy: TeamPolicy,
+        obs: th.Tensor,
+        out: th.Tensor,
+        next_obs: th.Tensor,
+        dones: th.Tensor,
+        gain: float,
+    ) -> tuple[th.Tensor, th.Tensor]:
+        """The ascent direction of every actor output (before inverting gradients) and the own
+        critic's ``Q``: ``dQ_own/d out`` at ``out``, then :meth:`actor_gradient`.
+
+        :param policy: the team's policy.
+        :param obs: ``(B, n_agents, obs_dim)`` observations.
+        :param out: ``(B, n_agents, actor_out_dim)`` bounded actor outputs (detached).
+        :param next_obs: ``(B, n_agents, obs_dim)`` next observations.
+        :param dones: ``(B, 1)`` terminal flags.
+        :param gain: scale of a teammate's message gradient (``tcg_gain``).
+        :return: ``grad`` shaped like ``out`` and ``own_q`` ``(B, n_agents)`` (detached).
+        """
+        current = out.detach().requires_grad_(True)
+        own_q = policy.q_values(obs, current)[0]
+        grad = th.autograd.grad(own_q.sum(), current)[0]
+        return self.actor_gradient(policy, grad, out, next_obs, dones, gain), own_q.detach()
+
     def actor_gradient(
         self,
         policy: TeamPolicy,
@@ -139,17 +164,48 @@ class TCG(RIAL):
         )
         return grad
 
+    def actor_gradients(
+        self,
+        policy: TeamPolicy,
+        obs: th.Tensor,
+        out: th.Tensor,
+        next_obs: th.Tensor,
+        dones: th.Tensor,
+        gain: float,
+    ) -> tuple[th.Tensor, th.Tensor]:
+        """The own critic's ``dQ_own/d out`` and the receivers' message gradient
+        (:meth:`teammate_message_gradients`) from **one** pass of the critic over both batches,
+        the senders' rows and the receivers' next rows stacked: the same values as two passes
+        (each row's ``Q`` depends on its own inputs only), with half the calls."""
+        batch = obs.shape[0]
+        messages = out[..., policy.env_action_dim :]
+        received, next_rows, next_actions = self._receiver_inputs(policy, messages, next_obs)
+        current = out.detach().requires_grad_(True)
+        q = policy.q_values(th.cat([obs, next_rows]), th.cat([current, next_actions]))[0]
+        grad, grad_received = th.autograd.grad(q.sum(), [current, received])
+        grad[..., policy.env_action_dim :] = gain * grad_received.flip(1) * (1.0 - dones).unsqueeze(-1)
+        return grad, q[:batch].detach()
+
+    @staticmethod
+    def _receiver_inputs(
+        policy: TeamPolicy, messages: th.Tensor, next_obs: th.Tensor
+    ) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
+        """Each sender's message in its receiver's next row: the message leaf (requires grad),
+        the receivers' next rows ``o'_j[m_i]`` and their next actions ``a'_j`` (held fixed)."""
+        start = policy.comm_layout.obs_message_slice.start
+        received = messages.detach().flip(1).clone().requires_grad_(True)
+        next_rows = th.cat([next_obs[..., :start], received], dim=-1)
+        with th.no_grad():
+            next_actions = policy.actor_outputs(next_rows)
+        return received, next_rows, next_actions
+
     @staticmethod
     def receiver_message_gradients(
         policy: TeamPolicy, messages: th.Tensor, next_obs: th.Tensor, dones: th.Tensor, gain: float = 1.0
     ) -> th.Tensor:
         """``gain · ∂Q_j(o'_j[m_i], a'_j)/∂m_i`` for each sender ``i`` of ``messages`` ``(B, 2, n)``,
         its receiver ``j``; see :meth:`teammate_message_gradients`."""
-        start = policy.comm_layout.obs_message_slice.start
-        received = messages.detach().flip(1).clone().requires_grad_(True)
-        next_rows = th.cat([next_obs[..., :start], received], dim=-1)
-        with th.no_grad():
-            next_actions = policy.actor_outputs(next_rows)
+        received, next_rows, next_actions = TCG._receiver_inputs(policy, messages, next_obs)
         receiver_q = policy.q_values(next_rows, next_actions)[0]
         grad_received = th.autograd.grad(receiver_q.sum(), received)[0]
         return gain * grad_received.flip(1) * (1.0 - dones).unsqueeze(-1)

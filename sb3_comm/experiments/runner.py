@@ -52,6 +52,16 @@ __all__ = [
     "select_runs",
 ]
 
+
+def _start_worker(spare_cores: bool) -> None:
+    """A worker process: it ends with its parent, and its GSN updates use a second thread only
+    where the runs leave cores spare (one core per run otherwise)."""
+    from sb3_comm.comm_ddpg import gsn
+
+    die_with_parent()
+    gsn.BESIDE_AGENTS = spare_cores
+
+
 RAY_MISSING = 'Ray is not installed: pip install "sb3-comm[ray]" (or pip install "ray>=2.9")'
 
 
@@ -177,7 +187,11 @@ def _local_results(
 
     extra = {"max_tasks_per_child": 1} if sys.version_info >= (3, 11) else {}
     with ProcessPoolExecutor(
-        max_workers=workers, mp_context=mp.get_context("spawn"), initializer=die_with_parent, **extra
+        max_workers=workers,
+        mp_context=mp.get_context("spawn"),
+        initializer=_start_worker,
+        initargs=(workers < usable_cores(),),
+        **extra,
     ) as pool:
         futures = {pool.submit(run_one, run, run_dir): run for run, run_dir in jobs}
         for future in as_completed(futures):
