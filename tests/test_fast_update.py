@@ -145,3 +145,23 @@ def test_gsn_beside_the_agents_trains_the_same_model_as_after_them(monkeypatch: 
         states[beside] = model.policy.state_dict()
     for name, tensor in states[True].items():
         assert th.equal(tensor, states[False][name]), name
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1e3])  # below and above the bound
+def test_clip_gradients_gives_torchs_clipped_gradients(scale: float) -> None:
+    from sb3_comm.common.networks import clip_gradients
+
+    th.manual_seed(0)
+    ours = [th.nn.Parameter(th.randn(5, 3)), th.nn.Parameter(th.randn(3)), th.nn.Parameter(th.randn(2))]
+    theirs = [th.nn.Parameter(p.detach().clone()) for p in ours]
+    for a, b in zip(ours, theirs, strict=True):
+        a.grad = th.randn_like(a) * scale
+        b.grad = a.grad.clone()
+    ours[2].grad = theirs[2].grad = None  # a parameter without a gradient is left alone
+    clip_gradients(ours, 1.0)
+    th.nn.utils.clip_grad_norm_(theirs, 1.0, foreach=False)
+    for a, b in zip(ours[:2], theirs[:2], strict=True):
+        assert th.equal(a.grad, b.grad)
+    assert ours[2].grad is None
+    norm = th.linalg.vector_norm(th.stack([p.grad.norm() for p in ours[:2]]))
+    assert norm <= 1.0 + 1e-5 if scale > 1 else norm < 0.1

@@ -34,7 +34,7 @@ from stable_baselines3.common.utils import FloatSchedule
 from torch import nn
 from torch.nn import functional as F
 
-from sb3_comm.common.networks import AgentMLPs, gradient_step
+from sb3_comm.common.networks import AgentMLPs, clip_gradients, gradient_step
 
 __all__ = ["BESIDE_AGENTS", "GSNTrainingCallback", "GroundedSemanticNetwork", "spare_core"]
 
@@ -348,7 +348,7 @@ class GSNTrainingCallback(BaseCallback):
                 for param, grad in zip(trained, [*reward_grads, *extractor_grads], strict=True):
                     param.grad = grad
                 if self.max_grad_norm:
-                    th.nn.utils.clip_grad_norm_(trained, self.max_grad_norm, foreach=True)
+                    clip_gradients(trained, self.max_grad_norm)
                 gsn.optimizer.step()  # type: ignore[union-attr]
                 values += [(key, value, 1) for key, value in stats.items()]
             loss = loss.detach()
