@@ -266,10 +266,14 @@ def main() -> None:
         if not (runs_dir / f"{m}_seed{s}.json").exists()
     ]
     if jobs and not args.summary_only:
-        from sb3_comm.common.files import die_with_parent
+        from sb3_comm.experiments.runner import start_worker
+        from sb3_comm.results import usable_cores
 
         with mp.get_context("spawn").Pool(
-            args.workers, initializer=die_with_parent, maxtasksperchild=1
+            args.workers,
+            initializer=start_worker,
+            initargs=(args.workers < usable_cores(),),
+            maxtasksperchild=1,
         ) as pool:
             for _ in pool.imap_unordered(run_one, jobs):
                 pass

@@ -99,10 +99,14 @@ def main() -> None:
         for method in args.methods
         for seed in args.seeds
     ]
-    from sb3_comm.common.files import die_with_parent
+    from sb3_comm.experiments.runner import start_worker
+    from sb3_comm.results import usable_cores
 
-    # The workers end with this process (a killed benchmark leaves no orphan training on).
-    with mp.get_context("spawn").Pool(min(args.workers, len(jobs)), initializer=die_with_parent) as pool:
+    # The workers end with this process (a killed benchmark leaves no orphan training on); a
+    # GSN's updates use a second thread only where the parallel runs leave a core spare.
+    workers = min(args.workers, len(jobs))
+    spare = workers < usable_cores()
+    with mp.get_context("spawn").Pool(workers, initializer=start_worker, initargs=(spare,)) as pool:
         runs = pool.map(run_one, jobs)
 
     rows = [

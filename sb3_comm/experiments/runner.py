@@ -50,10 +50,11 @@ __all__ = [
     "run_experiment",
     "run_one",
     "select_runs",
+    "start_worker",
 ]
 
 
-def _start_worker(spare_cores: bool) -> None:
+def start_worker(spare_cores: bool) -> None:
     """A worker process: it ends with its parent, and its GSN updates use a second thread only
     where the runs leave cores spare (one core per run otherwise)."""
     from sb3_comm.comm_ddpg import gsn
@@ -189,7 +190,7 @@ def _local_results(
     with ProcessPoolExecutor(
         max_workers=workers,
         mp_context=mp.get_context("spawn"),
-        initializer=_start_worker,
+        initializer=start_worker,
         initargs=(workers < usable_cores(),),
         **extra,
     ) as pool:
