@@ -4,6 +4,7 @@ lists) against a straightforward reference implementation of the same DDPG updat
 from __future__ import annotations
 
 import copy
+import inspect
 import threading
 
 import pytest
@@ -165,3 +166,30 @@ def test_clip_gradients_gives_torchs_clipped_gradients(scale: float) -> None:
     assert ours[2].grad is None
     norm = th.linalg.vector_norm(th.stack([p.grad.norm() for p in ours[:2]]))
     assert norm <= 1.0 + 1e-5 if scale > 1 else norm < 0.1
+
+
+def test_the_agents_batches_are_drawn_before_the_gsns() -> None:
+    """The order of the random draws of a GSN trained after the agents (as before the thread):
+    per train() call, the agents' batches, then the GSN's, then the next rollout's exploration."""
+    env = make_vec_env(coin_env, n_envs=2, seed=0)
+    model = CommDDPG(
+        "GSN",
+        env,
+        batch_size=8,
+        learning_starts=20,
+        gradient_steps=2,
+        seed=0,
+        policy_kwargs={"net_arch": [8]},
+    )
+    model.learn(24)  # the buffer, and the callback
+    draws: list[str] = []
+    sample = model.replay_buffer.sample
+
+    def recorded(*args, **kwargs):
+        callers = {frame.function for frame in inspect.stack()[1:5]}
+        draws.append("gsn" if "_prepare" in callers else "agents")
+        return sample(*args, **kwargs)
+
+    model.replay_buffer.sample = recorded
+    model.learn(4, reset_num_timesteps=False)  # two rollouts of 2 steps, two train() calls
+    assert draws == ["agents", "agents", "gsn", "gsn"] * 2

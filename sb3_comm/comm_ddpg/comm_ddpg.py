@@ -183,6 +183,7 @@ class CommDDPG(HybridDDPG):
         self.share_parameters = share_parameters
         self.gsn_callback: GSNTrainingCallback | None = None
         self._in_learn = False
+        self._drawn_batches: deque[JointReplayBufferSamples] | None = None
         super().__init__(
             policy,
             env,
@@ -322,13 +323,18 @@ class CommDDPG(HybridDDPG):
         ``learn``, the GSN's matching updates too, beside them where a core is spare
         (:meth:`GSNTrainingCallback.begin_updates`)."""
         callback = self.gsn_callback if self._in_learn else None
-        if callback is not None:
-            callback.begin_updates(gradient_steps)
+        if callback is None or gradient_steps <= 0:
+            super().train(gradient_steps, batch_size)
+            return
+        # The agents' batches are drawn first, then the GSN's: the order of the random draws of a
+        # GSN that trains after the agents, whether it now trains beside them or after them.
+        self._drawn_batches = deque(self.replay_buffer.sample(batch_size) for _ in range(gradient_steps))
+        callback.begin_updates(gradient_steps)
         try:
             super().train(gradient_steps, batch_size)
         finally:
-            if callback is not None:
-                callback.end_updates()
+            self._drawn_batches = None
+            callback.end_updates()
 
     def actor_output_gradients(
         self, obs: th.Tensor, out: th.Tensor, next_obs: th.Tensor, dones: th.Tensor
@@ -419,7 +425,7 @@ class CommDDPG(HybridDDPG):
 
     # ---------------------------------------------------------------------- save / load --
     def _excluded_save_params(self) -> list[str]:
-        excluded = ["gsn", "gsn_callback", "comm_layout", "_agent_returns", "_in_learn"]
+        excluded = ["gsn", "gsn_callback", "comm_layout", "_agent_returns", "_in_learn", "_drawn_batches"]
         return [*super()._excluded_save_params(), *excluded]
 
     def _get_torch_save_params(self) -> tuple[list[str], list[str]]:

@@ -14,9 +14,11 @@ callback, and, inside ``learn``, tells it when an agent update begins and ends
 
 Speed: a GSN update reads only the GSN and its own batch, and an agent update never reads the GSN,
 so on a machine with a core to spare the GSN's updates run on a second thread *beside* the agents'
-updates of the same ``train`` call (torch releases the GIL in its kernels). The batches are drawn
-first, on the main thread, so a run is the same, to the bit, with the thread or without it.
-GSN-MAX's update reads the agents' critic, so it runs after theirs, as before.
+updates of the same ``train`` call (torch releases the GIL in its kernels). Every batch is drawn
+first, on the main thread, the agents' and then the GSN's, in the order in which the GSN trained
+after the agents before: a run is the same, to the bit, with the thread or without it, and as
+when the GSN trained after the agents. GSN-MAX's update reads the agents' critic, so it runs
+after theirs.
 """
 
 from __future__ import annotations
@@ -144,8 +146,7 @@ class GroundedSemanticNetwork(nn.Module):
 
     def update_reward_statistics(self, rewards: th.Tensor) -> None:
         """Merge a batch into the running mean and variance (parallel-moments formula)."""
-        batch_var, batch_mean = th.var_mean(rewards, correction=0)
-        n = rewards.numel()
+        batch_mean, batch_var, n = rewards.mean(), rewards.var(unbiased=False), rewards.numel()
         total = self.reward_count + n
         delta = batch_mean - self.reward_mean
         m2 = self.reward_var * self.reward_count + batch_var * n + delta**2 * self.reward_count * n / total

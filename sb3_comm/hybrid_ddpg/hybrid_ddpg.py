@@ -375,8 +375,9 @@ class HybridDDPG(TD3):
         sources, targets = self._soft_update_pairs()
         for _ in range(gradient_steps):
             self._n_updates += 1
-            # sample
-            data = self.replay_buffer.sample(batch_size)  # type: ignore[union-attr]
+            # sample (or take a batch drawn before, see CommDDPG.train)
+            drawn = self.__dict__.get("_drawn_batches")
+            data = drawn.popleft() if drawn else self.replay_buffer.sample(batch_size)  # type: ignore[union-attr]
             obs, actions, next_obs = data.observations, data.actions, data.next_observations
 
             # critic target
