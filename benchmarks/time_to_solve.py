@@ -5,8 +5,9 @@ Each run trains with the packaged configuration (``zoo_configs/``) through
 :func:`sb3_comm.training.train_run`, evaluates the deterministic team on 100 games every
 ``--eval-freq`` steps (evaluation time is not training time), and stops at the first evaluation
 that reaches the target, or after ``--time-budget`` seconds of wall-clock or the configuration's
-``n_timesteps``. Runs go one after the other, with torch's default threads, so that each has the
-machine to itself; the load average before and after each run is recorded.
+``n_timesteps``. Runs go one after the other, so that each has the machine to itself, with
+torch's default threads or ``--threads`` (with one, a GSN's updates take the second core beside the
+agents'); the load average before and after each run is recorded.
 
     python benchmarks/time_to_solve.py --env BlindSoccer-v0 --method GSN --seeds 0 1 2 3 4
 """
@@ -19,6 +20,8 @@ import statistics
 import sys
 from pathlib import Path
 from typing import Any
+
+import torch as th
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
@@ -43,7 +46,11 @@ def main() -> None:
     parser.add_argument("--time-budget", type=float, default=900.0, help="wall-clock seconds per run")
     parser.add_argument("--save-dir", default="runs/time_to_solve")
     parser.add_argument("--name", default=None)
+    parser.add_argument("--threads", type=int, default=None, help="torch intra-op threads (default: torch's)")
     args = parser.parse_args()
+    if args.threads is not None:
+        th.set_num_threads(args.threads)
+    args.threads = th.get_num_threads()
 
     references = reference_returns(args.env, n_episodes=1000, seed=REFERENCE_SEED)
     assert references is not None
@@ -100,7 +107,8 @@ def main() -> None:
         f"{references['oracle']:.4f} = {target:.4f} on the mean return of 100 evaluation games every "
         f"{args.eval_freq:,} steps; a run stops there, or after {args.time_budget:.0f} s of wall-clock. "
         f"Median seconds to target over the {len(runs)} seeds (an unsolved seed counts as never): "
-        f"{'never' if median == float('inf') else f'{median:.0f} s'}. Runs one at a time."
+        f"{'never' if median == float('inf') else f'{median:.0f} s'}. Runs one at a time, torch threads "
+        f"{args.threads}."
     )
     write_results(
         name,
