@@ -60,6 +60,8 @@ class TeamPolicy(Protocol):
 
     def q_values(self, obs: th.Tensor, actions: th.Tensor, target: bool = False) -> list[th.Tensor]: ...
 
+    def critic_action_gradients(self, obs: th.Tensor, out: th.Tensor) -> tuple[th.Tensor, th.Tensor]: ...
+
 
 class CommMethod:
     """Base: no messages of its own, no message gradient, no extra network."""
@@ -98,10 +100,8 @@ class CommMethod:
         :param gain: scale of a teammate's message gradient (``tcg_gain``).
         :return: ``grad`` shaped like ``out`` and ``own_q`` ``(B, n_agents)`` (detached).
         """
-        current = out.detach().requires_grad_(True)
-        own_q = policy.q_values(obs, current)[0]
-        grad = th.autograd.grad(own_q.sum(), current)[0]
-        return self.actor_gradient(policy, grad, out, next_obs, dones, gain), own_q.detach()
+        grad, own_q = policy.critic_action_gradients(obs, out)
+        return self.actor_gradient(policy, grad, out, next_obs, dones, gain), own_q
 
     def actor_gradient(
         self,

@@ -434,16 +434,14 @@ class HybridDDPG(TD3):
         return pairs
 
     def critic_action_gradients(self, obs: th.Tensor, out: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
-        """``dQ/d out`` of the (first) critic at the actor's outputs, and that critic's ``Q``.
+        """``dQ/d out`` of the (first) critic at the actor's outputs, and that critic's ``Q``
+        (the policy's :meth:`~sb3_comm.hybrid_ddpg.HybridPolicy.critic_action_gradients`).
 
         :param obs: observations.
         :param out: bounded actor outputs (detached).
         :return: ``grad`` shaped like ``out`` and ``Q`` (detached).
         """
-        current = out.detach().requires_grad_(True)
-        own_q = self.policy.q_values(obs, current)[0]
-        grad = th.autograd.grad(own_q.sum(), current)[0]
-        return grad, own_q.detach()
+        return self.policy.critic_action_gradients(obs, out)
 
     def invert_bounded_gradients(self, grad: th.Tensor, out: th.Tensor) -> th.Tensor:
         """Inverting gradients on hybrid heads (ICLR 2016, eq. 11); ``tanh`` heads need none."""

@@ -159,6 +159,18 @@ class HybridPolicy(BasePolicy):
         x = th.cat([obs, actions[..., : self.actor_out_dim]], dim=-1)
         return [self.critic_value(critic, x) for critic in critics]
 
+    def critic_action_gradients(self, obs: th.Tensor, out: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        """``dQ/d out`` of the (first) critic at the actor's outputs, and that critic's ``Q``.
+
+        :param obs: observations.
+        :param out: bounded actor outputs (detached).
+        :return: ``grad`` shaped like ``out`` and ``Q`` (detached).
+        """
+        current = out.detach().requires_grad_(True)
+        own_q = self.q_values(obs, current)[0]
+        grad = th.autograd.grad(own_q.sum(), current)[0]
+        return grad, own_q.detach()
+
     # ---------------------------------------------------------------------------- SB3 API --
     def forward(self, obs: th.Tensor, deterministic: bool = True) -> th.Tensor:
         """Deterministic scaled actions (same as :meth:`_predict`)."""
