@@ -267,12 +267,11 @@ def main() -> None:
     ]
     if jobs and not args.summary_only:
         from sb3_comm.experiments.runner import start_worker
-        from sb3_comm.results import usable_cores
 
         with mp.get_context("spawn").Pool(
             args.workers,
             initializer=start_worker,
-            initargs=(args.workers < usable_cores(),),
+            initargs=(args.workers,),
             maxtasksperchild=1,
         ) as pool:
             for _ in pool.imap_unordered(run_one, jobs):

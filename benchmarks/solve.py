@@ -100,13 +100,11 @@ def main() -> None:
         for seed in args.seeds
     ]
     from sb3_comm.experiments.runner import start_worker
-    from sb3_comm.results import usable_cores
 
     # The workers end with this process (a killed benchmark leaves no orphan training on); a
     # GSN's updates use a second thread only where the parallel runs leave a core spare.
     workers = min(args.workers, len(jobs))
-    spare = workers < usable_cores()
-    with mp.get_context("spawn").Pool(workers, initializer=start_worker, initargs=(spare,)) as pool:
+    with mp.get_context("spawn").Pool(workers, initializer=start_worker, initargs=(workers,)) as pool:
         runs = pool.map(run_one, jobs)
 
     rows = [

@@ -336,6 +336,12 @@ class CommDDPG(HybridDDPG):
             self._drawn_batches = None
             callback.end_updates()
 
+    def _next_batch(self, batch_size: int) -> JointReplayBufferSamples:
+        """A batch drawn before the GSN's (:meth:`train`), or a fresh sample."""
+        if self._drawn_batches:
+            return self._drawn_batches.popleft()
+        return super()._next_batch(batch_size)
+
     def actor_output_gradients(
         self, obs: th.Tensor, out: th.Tensor, next_obs: th.Tensor, dones: th.Tensor
     ) -> tuple[th.Tensor, th.Tensor]:

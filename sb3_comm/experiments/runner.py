@@ -54,13 +54,13 @@ __all__ = [
 ]
 
 
-def start_worker(spare_cores: bool) -> None:
-    """A worker process: it ends with its parent, and its GSN updates use a second thread only
-    where the runs leave cores spare (one core per run otherwise)."""
+def start_worker(workers: int) -> None:
+    """A worker process of a pool of ``workers``: it ends with its parent, and its GSN updates use a
+    second thread only where the runs leave cores spare (one core per run otherwise)."""
     from sb3_comm.comm_ddpg import gsn
 
     die_with_parent()
-    gsn.BESIDE_AGENTS = spare_cores
+    gsn.BESIDE_AGENTS = workers < usable_cores()
 
 
 RAY_MISSING = 'Ray is not installed: pip install "sb3-comm[ray]" (or pip install "ray>=2.9")'
@@ -191,7 +191,7 @@ def _local_results(
         max_workers=workers,
         mp_context=mp.get_context("spawn"),
         initializer=start_worker,
-        initargs=(workers < usable_cores(),),
+        initargs=(workers,),
         **extra,
     ) as pool:
         futures = {pool.submit(run_one, run, run_dir): run for run, run_dir in jobs}

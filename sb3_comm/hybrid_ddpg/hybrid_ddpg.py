@@ -375,9 +375,8 @@ class HybridDDPG(TD3):
         sources, targets = self._soft_update_pairs()
         for _ in range(gradient_steps):
             self._n_updates += 1
-            # sample (or take a batch drawn before, see CommDDPG.train)
-            drawn = self.__dict__.get("_drawn_batches")
-            data = drawn.popleft() if drawn else self.replay_buffer.sample(batch_size)  # type: ignore[union-attr]
+            # sample
+            data = self._next_batch(batch_size)
             obs, actions, next_obs = data.observations, data.actions, data.next_observations
 
             # critic target
@@ -422,6 +421,10 @@ class HybridDDPG(TD3):
 
         if gradient_steps > 0:  # the agent's own update, without the method's extra networks
             log.add("time/agent_update_ms", 1000.0 * (time.perf_counter() - began), count=gradient_steps)
+
+    def _next_batch(self, batch_size: int) -> MonteCarloReplayBufferSamples:
+        """The batch of the next update: a uniform sample of the replay buffer."""
+        return self.replay_buffer.sample(batch_size)  # type: ignore[union-attr]
 
     def _soft_update_pairs(self) -> tuple[list[th.Tensor], list[th.Tensor]]:
         """The trained parameters and their targets, listed once per policy."""
