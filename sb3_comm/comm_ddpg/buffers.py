@@ -5,19 +5,34 @@ yields the joint tuple the methods need: the sender's observation, the teammate'
 reward (GSN), and the teammate's next observation (TCG). Rewards are per agent, read from the
 ``agent_rewards`` entry that the two-agent wrappers put in each step's info. Monte-Carlo returns
 are kept per agent, as in :class:`~sb3_comm.common.buffers.MonteCarloReplayBuffer`.
+
+Messages that are a function of the sender's observation (GSN's ``m = M(o)``) can be **relabelled**
+at sample time: the buffer knows where each transition's previous step lies, so a
+:data:`MessageRelabeler` (set by :class:`~sb3_comm.CommDDPG` with ``relabel_messages``) can replace
+the heard messages stored at acting time by what the current message network sends for the same
+observations. Without it, replayed observations carry messages of the GSN as it was when they were
+stored, up to a buffer's length ago.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+import torch as th
 from gymnasium import spaces
+from stable_baselines3.common.vec_env import VecNormalize
 
 from sb3_comm.common.buffers import MonteCarloReplayBuffer
 from sb3_comm.common.buffers import MonteCarloReplayBufferSamples as JointReplayBufferSamples
 
-__all__ = ["JointReplayBuffer", "JointReplayBufferSamples"]
+__all__ = ["JointReplayBuffer", "JointReplayBufferSamples", "MessageRelabeler"]
+
+MessageRelabeler = Callable[[th.Tensor, th.Tensor, th.Tensor, th.Tensor], tuple[th.Tensor, th.Tensor]]
+"""``(observations, next_observations, previous_observations, has_previous) -> (observations,
+next_observations)`` with the heard messages recomputed; ``previous_observations`` are the rows of
+each transition's previous step in the same game, valid where ``has_previous`` is 1."""
 
 
 class JointReplayBuffer(MonteCarloReplayBuffer):
@@ -30,9 +45,78 @@ class JointReplayBuffer(MonteCarloReplayBuffer):
     :param n_agents: agents per game.
     """
 
+    message_relabeler: MessageRelabeler | None = None
+    """Recomputes the heard messages of every sample (None: as stored). Not saved with the buffer."""
+    episode_starts: np.ndarray | None = None  # None in buffers pickled before it existed
+
     def __init__(self, *args: Any, n_agents: int = 2, **kwargs: Any) -> None:
         self.n_agents = n_agents  # read by _rows() while the base class allocates the storage
         super().__init__(*args, **kwargs)
+        self.episode_starts = np.zeros((self.buffer_size, self.n_envs), dtype=bool)
+        """(steps, n_envs) the transition's observation is the first of an episode."""
+        self._next_starts = np.ones(self.n_envs, dtype=bool)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state.pop("message_relabeler", None)  # a bound method of the model: not part of the data
+        return state
+
+    def add(
+        self,
+        obs: np.ndarray,
+        next_obs: np.ndarray,
+        action: np.ndarray,
+        reward: np.ndarray,
+        done: np.ndarray,
+        infos: list[dict[str, Any]],
+    ) -> None:
+        """Store one step of every env, and whether it begins an episode."""
+        if self.episode_starts is not None:
+            self.episode_starts[self.pos] = self._next_starts
+            self._next_starts = np.asarray(done, dtype=bool).reshape(self.n_envs).copy()
+        super().add(obs, next_obs, action, reward, done, infos)
+
+    def close_open_episodes(self) -> None:
+        """Forget the running episodes (after a load): the next stored step begins one in every env."""
+        super().close_open_episodes()
+        self._next_starts = np.ones(self.n_envs, dtype=bool)
+
+    def previous_observations(
+        self, batch_inds: np.ndarray, env_inds: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The observation rows of each transition's previous step in the same game.
+
+        :param batch_inds: ``(B,)`` step indices in the buffer.
+        :param env_inds: ``(B,)`` env indices.
+        :return: ``(B, n_agents, obs_dim)`` rows and ``(B,)`` whether they are valid: False where
+            the transition begins an episode (its heard messages are the zeros of a reset) or its
+            previous step is no longer (or not yet) stored.
+        """
+        previous = (batch_inds - 1) % self.buffer_size
+        if self.episode_starts is not None:
+            has_previous = ~self.episode_starts[batch_inds, env_inds]
+        else:
+            has_previous = self.dones[previous, env_inds] == 0
+        oldest = self.pos if self.full else 0
+        has_previous &= batch_inds != oldest
+        return self.observations[previous, env_inds], has_previous
+
+    def _get_samples(
+        self, batch_inds: np.ndarray, env: VecNormalize | None = None
+    ) -> JointReplayBufferSamples:
+        env_inds = np.random.randint(0, high=self.n_envs, size=(len(batch_inds),))
+        samples = self._gather(batch_inds, env_inds)
+        relabel = self.message_relabeler
+        if relabel is None:
+            return samples
+        previous, has_previous = self.previous_observations(batch_inds, env_inds)
+        observations, next_observations = relabel(
+            samples.observations,
+            samples.next_observations,
+            self.to_torch(previous),
+            self.to_torch(has_previous.astype(np.float32)),
+        )
+        return samples._replace(observations=observations, next_observations=next_observations)
 
     @property
     def reward_width(self) -> int:

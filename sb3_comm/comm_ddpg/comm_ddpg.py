@@ -95,6 +95,11 @@ class CommDDPG(HybridDDPG):
         a time limit is summed as if the episode had ended, which biases the critic on tasks whose
         episodes are mostly truncated, see ``benchmarks/results/simple_reference_beta0.5.md``).
     :param tcg_gain: scale of the teammate's gradient that trains TCG messages.
+    :param relabel_messages: GSN only: replace the heard messages of every replayed transition by
+        what the current message network sends for the stored observations (the previous step's
+        sender rows for the observation, the transition's own rows for the next observation),
+        instead of the messages of the GSN as it was when the transition was stored
+        (:class:`~sb3_comm.comm_ddpg.buffers.JointReplayBuffer`).
     :param channel_size: expected message size; must match the environment's (None: take it).
     :param share_parameters: one set of networks for both agents (role one-hot in the observation)
         or one per agent, as in the paper.
@@ -147,6 +152,7 @@ class CommDDPG(HybridDDPG):
         gaussian_noise_std: float = 0.1,
         mc_mixing: float = 0.0,
         tcg_gain: float = 1.0,
+        relabel_messages: bool = False,
         channel_size: int | None = None,
         share_parameters: bool = True,
         max_grad_norm: float | None = 10.0,
@@ -170,6 +176,7 @@ class CommDDPG(HybridDDPG):
                 "gsn_max_signals": gsn_max_signals,
                 "gsn_max_explore_messages": gsn_max_explore_messages,
                 "tcg_gain": tcg_gain,
+                "relabel_messages": relabel_messages,
                 "channel_size": channel_size,
                 "share_parameters": share_parameters,
             }
@@ -179,6 +186,7 @@ class CommDDPG(HybridDDPG):
         self.gsn_max_signals = gsn_max_signals
         self.gsn_max_explore_messages = gsn_max_explore_messages
         self.tcg_gain = tcg_gain
+        self.relabel_messages = relabel_messages
         self.channel_size = channel_size
         self.share_parameters = share_parameters
         self.gsn_callback: GSNTrainingCallback | None = None
@@ -295,7 +303,55 @@ class CommDDPG(HybridDDPG):
                     f"gsn_max_explore_messages={self.gsn_max_explore_messages!r}: leave it at True"
                 )
         self.gsn = self.policy.gsn
+        self._attach_relabeler()
         self._agent_returns: deque[np.ndarray] = deque(maxlen=self._stats_window_size)
+
+    def _attach_relabeler(self) -> None:
+        """Give the replay buffer :meth:`relabel_heard_messages` where ``relabel_messages`` asks."""
+        if not self.relabel_messages:
+            return
+        explored = self._explorable[self.comm_layout.action_message_slice].any()
+        if self.gsn is None or explored:
+            raise ValueError(
+                f"relabel_messages=True needs messages that are a function of the sender's observation, "
+                f"m = M(o) (method GSN, or GSN-MAX with gsn_max_explore_messages=False); method "
+                f"{self.method} {'explores its messages' if explored else 'has no message network'}"
+            )
+        self.replay_buffer.message_relabeler = self.relabel_heard_messages
+
+    def relabel_heard_messages(
+        self, obs: th.Tensor, next_obs: th.Tensor, previous: th.Tensor, has_previous: th.Tensor
+    ) -> tuple[th.Tensor, th.Tensor]:
+        """The heard messages of replayed transitions, as the current GSN would send them.
+
+        The message heard at step ``t`` was sent at ``t − 1``: ``M(o_{t−1}^{teammate})``, from the
+        previous step's rows (kept as stored where the transition begins an episode: the zeros of a
+        reset). The message heard at ``t + 1`` is ``M(o_t^{teammate})`` of the relabelled rows.
+        Messages are clipped to the channel's [-1, 1].
+
+        :param obs: ``(B, 2, obs_dim)`` observations.
+        :param next_obs: ``(B, 2, obs_dim)`` next observations.
+        :param previous: ``(B, 2, obs_dim)`` observations of the previous step of the same game.
+        :param has_previous: ``(B,)`` 1 where ``previous`` is valid.
+        :return: ``obs`` and ``next_obs`` with their heard messages replaced (new tensors).
+        """
+        assert self.gsn is not None
+        heard = self.comm_layout.obs_message_slice
+        with th.no_grad():
+            # Row i hears its teammate's message: flip the agent axis (two agents).
+            sent_before = self.gsn.message(previous).clamp(-1.0, 1.0).flip(1)
+            obs = obs.clone()
+            keep = has_previous.view(-1, 1, 1) > 0
+            obs[..., heard] = th.where(keep, sent_before, obs[..., heard])
+            next_obs = next_obs.clone()
+            next_obs[..., heard] = self.gsn.message(obs).clamp(-1.0, 1.0).flip(1)
+        return obs, next_obs
+
+    def load_replay_buffer(self, path: Any, truncate_last_traj: bool = True) -> None:
+        """:meth:`HybridDDPG.load_replay_buffer <sb3_comm.HybridDDPG.load_replay_buffer>`, with the
+        message relabelling attached again (it is not saved with the buffer)."""
+        super().load_replay_buffer(path, truncate_last_traj)
+        self._attach_relabeler()
 
     @property
     def method(self) -> str:

@@ -167,6 +167,10 @@ class MonteCarloReplayBuffer(BaseBuffer):
         self, batch_inds: np.ndarray, env: VecNormalize | None = None
     ) -> MonteCarloReplayBufferSamples:
         env_inds = np.random.randint(0, high=self.n_envs, size=(len(batch_inds),))
+        return self._gather(batch_inds, env_inds)
+
+    def _gather(self, batch_inds: np.ndarray, env_inds: np.ndarray) -> MonteCarloReplayBufferSamples:
+        """The transitions at steps ``batch_inds`` of envs ``env_inds``, as tensors."""
         dones = self.dones[batch_inds, env_inds] * (1.0 - self.timeouts[batch_inds, env_inds])
         data = (
             self.observations[batch_inds, env_inds],

@@ -253,6 +253,7 @@ HYPERPARAMETERS: dict[str, Check] = {
     "gaussian_noise_std": Range(0.0),
     "mc_mixing": UNIT,
     "tcg_gain": Range(),
+    "relabel_messages": Flag(),
     "channel_size": Range(0, whole=True, special=(None,), hint="None: the environment's"),
     "share_parameters": Flag(),
     "max_grad_norm": Range(0.0, low_open=True, special=(None,), hint="None disables gradient clipping"),
