@@ -5,7 +5,9 @@ evaluates the deterministic team every ``--eval-freq`` steps on 100 parallel gam
 wall-clock training time (evaluations excluded) and steps at which the mean return first reached
 ``--target-fraction`` × the oracle's return, and ends with a final 100-episode evaluation with the
 messages intact, zeroed and shuffled (the paper's ablation). Runs go in parallel, one process per
-core, each with one torch thread.
+core, each with one torch thread. Resumable: a run whose folder under ``--save-dir`` already holds
+a ``result.json`` with the same settings is read instead of trained again, so a many-seed solve
+can be made in pieces (the same command again, or more seeds), and an interrupted run starts over.
 
     python benchmarks/solve.py --env BlindSoccer-v0 --methods GSN NONE --seeds 0 --time-budget 1800
 """
@@ -13,7 +15,9 @@ core, each with one torch thread.
 from __future__ import annotations
 
 import argparse
+import json
 import multiprocessing as mp
+import shutil
 import sys
 from pathlib import Path
 from typing import Any
@@ -40,14 +44,28 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
 
     from sb3_comm.callbacks import TimeBudgetCallback
     from sb3_comm.config import RunConfig
+    from sb3_comm.results import RunResult
     from sb3_comm.training import EvalSettings, train_run
 
     th.set_num_threads(1)
     env_id, method, seed = job["env"], job["method"], job["seed"]
     config = RunConfig.load(method, env_id, seed=seed, overrides=job["overrides"])
+    run_dir = Path(job["save_dir"]) / f"{env_id}_{method}_seed{seed}"
+    finished, settings = run_dir / "result.json", run_dir / "solve_job.json"
+    if finished.exists() and settings.exists():  # resumable: read a run an earlier call finished
+        earlier = RunResult.load(finished)
+        if json.loads(settings.read_text()) != json.loads(json.dumps(job)):
+            raise ValueError(f"{run_dir} holds a run with other settings: use another --save-dir")
+        if earlier.status == "done":
+            print(f"{run_dir}: finished earlier, read from {finished.name}", flush=True)
+            return earlier.to_json()
+    if run_dir.exists():  # an interrupted or failed run starts again from scratch
+        shutil.rmtree(run_dir)
+    run_dir.mkdir(parents=True)
+    settings.write_text(json.dumps(job, indent=1))
     result = train_run(
         config,
-        Path(job["save_dir"]) / f"{env_id}_{method}_seed{seed}",
+        run_dir,
         evaluation=EvalSettings(
             freq=job["eval_freq"],
             episodes=100,
