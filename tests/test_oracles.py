@@ -83,3 +83,24 @@ def test_evaluate_accepts_environment_shells():
     assert result["agents"] == ["player"]
     assert set(result["outcomes"]) == {"IN_GAME", "GOAL", "OUT_OF_BOUNDS", "OUT_OF_TIME"}
     assert referee.IN_GAME == 0
+
+
+def test_a_team_evaluation_plays_the_games_the_oracle_is_scored_on():
+    """The premise of judging a learner against the oracle on the same games
+    (benchmarks/stability.py): the team VecEnv that ``evaluate_team`` builds for a seed starts the
+    games the reference evaluation of that seed starts, and steps them alike."""
+    from envs.registry import get_task
+    from sb3_comm import make_comm_vec_env
+
+    spec = get_task("BlindSoccer-v0")
+    task = spec.batched_env(n_games=20)
+    venv = make_comm_vec_env("BlindSoccer-v0", n_envs=20, seed=10_000)
+    features = np.asarray(task.reset(seed=10_000))[..., :58]
+    rows = venv.reset().reshape(20, 2, -1)
+    np.testing.assert_array_equal(rows[..., :58], features)
+    oracle = spec.reference_policies(np.random.default_rng(1))["oracle"]
+    for _ in range(5):
+        actions = oracle(task)
+        expected = np.asarray(task.step(actions)[0])[..., :58]
+        rows = venv.step(actions)[0].reshape(20, 2, -1)
+        np.testing.assert_allclose(rows[..., :58], expected, atol=1e-6)
