@@ -123,8 +123,22 @@ def main() -> None:
     # GSN's updates use a second thread only where the parallel runs leave a core spare.
     workers = min(args.workers, len(jobs))
     with mp.get_context("spawn").Pool(workers, initializer=start_worker, initargs=(workers,)) as pool:
-        runs = pool.map(run_one, jobs)
+        runs: list[dict[str, Any]] = []
+        for run in pool.imap_unordered(run_one, jobs):  # the summary so far, after every run
+            runs.append(run)
+            runs.sort(key=lambda r: (r["method"], r["seed"]))
+            write_summary(args, runs, oracle, random_return, target, len(jobs))
 
+
+def write_summary(
+    args: argparse.Namespace,
+    runs: list[dict[str, Any]],
+    oracle: float,
+    random_return: float,
+    target: float,
+    n_jobs: int,
+) -> None:
+    """The results files of the runs finished so far (all of them at the end)."""
     rows = [
         "| method | seed | env steps | train time (s) | final return | fraction of oracle | "
         "time to target (s) | steps to target | zeroed messages | shuffled messages |",
@@ -140,13 +154,15 @@ def main() -> None:
             f"{'—' if stt is None else f'{stt:,}'} | "
             f"{fin['zero']['mean_return']:.3f} | {fin['shuffle']['mean_return']:.3f} |"
         )
+    pending = n_jobs - len(runs)
     notes = (
-        f"\n\nOracle return {oracle:.4f}, random {random_return:.4f} "
+        (f"\n\n**{pending} of {n_jobs} runs not finished yet.**" if pending else "")
+        + f"\n\nOracle return {oracle:.4f}, random {random_return:.4f} "
         f"(1,000 episodes, seed {REFERENCE_SEED}); "
         f"target = {args.target_fraction} × oracle = {target:.4f}. Returns are team means over 100 "
         "deterministic evaluation episodes. Time to target is training wall-clock time with the "
         f"periodic evaluations (every {args.eval_freq:,} steps) excluded; each run is one process with "
-        f"one torch thread, {min(args.workers, len(jobs))} runs in parallel on this machine. Time budget "
+        f"one torch thread, {min(args.workers, n_jobs)} runs in parallel on this machine. Time budget "
         f"per run: {args.time_budget:.0f} s."
     )
     write_results(
