@@ -73,7 +73,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
             final_seed=20_000,
             target_return=job["target"],
         ),
-        save_freq=0,
+        save_freq=job.get("save_freq", 0),
         callbacks=[TimeBudgetCallback(job["time_budget"])],
     )
     return result.to_json()
@@ -92,6 +92,9 @@ def main() -> None:
     parser.add_argument("--target-fraction", type=float, default=0.9)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--params", nargs="*", default=[], help="hyperparameter overrides key=value")
+    parser.add_argument(
+        "--save-freq", type=int, default=0, help="a checkpoint every this many steps (0: none)"
+    )
     parser.add_argument("--save-dir", default="runs/benchmarks", help="where the run folders go")
     parser.add_argument("--name", default=None, help="result file stem")
     args = parser.parse_args()
@@ -113,6 +116,7 @@ def main() -> None:
             "target": target,
             "overrides": overrides,
             "save_dir": args.save_dir,
+            **({"save_freq": args.save_freq} if args.save_freq else {}),
         }
         for method in args.methods
         for seed in args.seeds
