@@ -8,6 +8,15 @@ the share of dashes, turns and kicks, and for the blind agent the share of forwa
 (direction within ±22.5°, the server's 45° grid rounds it to 0), the mean |turn| asked for, and how
 often a turn follows a turn. The return is given as a fraction of the oracle on the same games.
 
+With ``--swap STEPS ...`` (checkpoints around a collapse) it also asks which part collapsed:
+
+* the return of every pairing of one checkpoint's agents (actor and critic) with another
+  checkpoint's GSN (message network): a collapse that follows the rows is the agents', one that
+  follows the columns the messages';
+* how each checkpoint's critic rates each checkpoint's actor: the blind agent's mean ``Q`` of the
+  actions that actor takes, on the observations of the first checkpoint's team playing the same
+  games (does the critic still prefer the good actor to its own?).
+
     python benchmarks/collapse_anatomy.py /work/bsruns/diag/BlindSoccer-v0_GSN_seed7 \\
         --name collapse_anatomy_blind_soccer_gsn_seed7
 """
@@ -31,9 +40,9 @@ KINDS = ("dash", "turn", "kick")
 
 def anatomy(model_path: Path, seed: int, n_games: int) -> dict[str, Any]:
     """Play ``n_games`` games of seed ``seed`` with one checkpoint and count what each agent does."""
-    from sb3_comm import CommDDPG, make_comm_vec_env
+    from sb3_comm import make_comm_vec_env
 
-    model = CommDDPG.load(model_path, device="cpu")
+    model = load(model_path)
     env = make_comm_vec_env(ENV_ID, n_envs=n_games, seed=seed)
     layout = env.comm_layout
     low, high = env.action_space.low.reshape(2, -1), env.action_space.high.reshape(2, -1)
@@ -76,6 +85,61 @@ def anatomy(model_path: Path, seed: int, n_games: int) -> dict[str, Any]:
     }
 
 
+def load(path: Path) -> Any:
+    from sb3_comm import CommDDPG
+
+    return CommDDPG.load(path, device="cpu")
+
+
+def swap_tables(paths: dict[int, Path], seed: int, n_games: int, oracle: float) -> dict[str, Any]:
+    """Agents × GSN returns and critic × actor ratings of the checkpoints ``paths`` (see above)."""
+    import copy
+
+    import torch as th
+
+    from sb3_comm import make_comm_vec_env
+    from sb3_comm.evaluation import evaluate_team
+
+    models = {steps: load(path) for steps, path in paths.items()}
+    steps = sorted(models)
+    returns = []
+    for agents in steps:
+        row = []
+        for gsn in steps:
+            model = models[agents]
+            if gsn != agents:
+                model = copy.deepcopy(model)
+                model.policy.gsn.load_state_dict(models[gsn].policy.gsn.state_dict())
+            team = evaluate_team(model, ENV_ID, n_episodes=n_games, seed=seed).team_returns
+            row.append(float(team.mean()) / oracle)
+        returns.append(row)
+    # observations of the first checkpoint's team on the same games (60 steps, finished games too)
+    first = models[steps[0]]
+    env = make_comm_vec_env(ENV_ID, n_envs=n_games, seed=seed)
+    obs, rows = env.reset(), []
+    for _ in range(60):
+        rows.append(obs.copy())
+        obs, *_ = env.step(first.predict(obs, deterministic=True)[0])
+    observations = th.as_tensor(np.concatenate(rows), dtype=th.float32)
+    observations = observations.reshape(-1, *first.observation_space.shape)
+    blind = list(first.comm_layout.agent_names).index("blind")
+    ratings = []
+    with th.no_grad():
+        for critic in steps:
+            policy = models[critic].policy
+            ratings.append(
+                [
+                    float(
+                        policy.q_values(observations, models[actor].policy.actor_outputs(observations))[0][
+                            :, blind
+                        ].mean()
+                    )
+                    for actor in steps
+                ]
+            )
+    return {"steps": steps, "returns": returns, "critic_ratings": ratings}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -83,6 +147,8 @@ def main() -> None:
     parser.add_argument("run_dir", help="a run folder with checkpoints/model_<steps>_steps.zip")
     parser.add_argument("--seed", type=int, default=10_000, help="the games (solve.py's curve seed)")
     parser.add_argument("--games", type=int, default=100)
+    parser.add_argument("--min-steps", type=int, default=0, help="skip earlier checkpoints")
+    parser.add_argument("--swap", type=int, nargs="*", default=[], help="checkpoint steps to cross")
     parser.add_argument("--name", required=True)
     args = parser.parse_args()
     from sb3_comm.analysis.references import reference_returns
@@ -91,7 +157,7 @@ def main() -> None:
     found = sorted(
         (int(m.group(1)), path)
         for path in Path(args.run_dir, "checkpoints").glob("model_*_steps.zip")
-        if (m := re.fullmatch(r"model_(\d+)_steps\.zip", path.name))
+        if (m := re.fullmatch(r"model_(\d+)_steps\.zip", path.name)) and int(m.group(1)) >= args.min_steps
     )
     if not found:
         raise SystemExit(f"no checkpoints in {args.run_dir}/checkpoints")
@@ -112,6 +178,35 @@ def main() -> None:
             f"| {p['timesteps']:,} | {p['fraction']:.2f} | {blind} | {p['blind_forward_dash_share']:.2f} | "
             f"{p['blind_mean_turn_degrees']:.0f} | {p['blind_turn_after_turn_share']:.2f} | {sighted} |"
         )
+    swap = None
+    if args.swap:
+        by_steps = dict(found)
+        missing = [steps for steps in args.swap if steps not in by_steps]
+        if missing:
+            raise SystemExit(f"--swap: no checkpoints at steps {missing}; found {sorted(by_steps)}")
+        swap = swap_tables({steps: by_steps[steps] for steps in args.swap}, args.seed, args.games, oracle)
+        labels = [f"{steps // 1000}k" for steps in swap["steps"]]
+        rows += [
+            "",
+            "## Which part collapsed: agents (rows) with another checkpoint's GSN (columns)",
+            "",
+            "| agents from \\ GSN from | " + " | ".join(labels) + " |",
+            "|---|" + "---:|" * len(labels),
+            *(
+                f"| {label} | " + " | ".join(f"{v:.2f}" for v in row) + " |"
+                for label, row in zip(labels, swap["returns"], strict=True)
+            ),
+            "",
+            f"## The blind agent's mean Q: each critic (rows) rates each actor (columns), on the {labels[0]} "
+            "team's observations",
+            "",
+            "| critic from \\ actor from | " + " | ".join(labels) + " |",
+            "|---|" + "---:|" * len(labels),
+            *(
+                f"| {label} | " + " | ".join(f"{v:.3f}" for v in row) + " |"
+                for label, row in zip(labels, swap["critic_ratings"], strict=True)
+            ),
+        ]
     notes = (
         f"\n\nRun `{args.run_dir}`; every checkpoint plays the same {args.games} games (seed {args.seed}), "
         f"one episode each, deterministic; oracle on those games {oracle:.4f}. Shares are over the steps "
@@ -120,7 +215,7 @@ def main() -> None:
     )
     write_results(
         args.name,
-        {"args": vars(args), "oracle": oracle, "points": points},
+        {"args": vars(args), "oracle": oracle, "points": points, "swap": swap},
         "\n".join(rows) + notes,
         title="Anatomy of a collapse: what the team does at each checkpoint",
     )

@@ -44,6 +44,7 @@ class CommPolicy(HybridPolicy):
     :param activation_fn: hidden activation (leaky ReLU, slope 0.01, as the reference code).
     :param share_parameters: one set of networks for both agents, or one per agent (paper).
     :param n_critics: 1 for DDPG, 2 for TD3's clipped double Q.
+    :param score_gradient: what moves the action scores (see :class:`HybridPolicy`).
     :param gsn_net_arch: hidden widths of the GSN message extractor ``M``.
     :param gsn_reward_net_arch: hidden widths of the GSN reward model ``R``.
     :param gsn_message_activation: ``"tanh"`` or ``"linear"`` (see the GSN).
@@ -68,6 +69,7 @@ class CommPolicy(HybridPolicy):
         activation_fn: type[nn.Module] = nn.LeakyReLU,
         share_parameters: bool = True,
         n_critics: int = 1,
+        score_gradient: str = "critic",
         gsn_net_arch: list[int] | None = None,
         gsn_reward_net_arch: list[int] | None = None,
         gsn_message_activation: str = "tanh",
@@ -98,6 +100,7 @@ class CommPolicy(HybridPolicy):
             net_arch=net_arch,
             activation_fn=activation_fn,
             n_critics=n_critics,
+            score_gradient=score_gradient,
             optimizer_class=optimizer_class,
             optimizer_kwargs=optimizer_kwargs,
         )

@@ -211,6 +211,7 @@ POLICY_KWARGS: dict[str, Check] = {
     "gsn_reward_net_arch": Widths(),
     "share_parameters": Flag(),
     "gsn_normalize_rewards": Flag(),
+    "score_gradient": OneOf(("critic", "alternatives")),
 }
 """What the checked entries of ``policy_kwargs`` accept (others are left to the policy)."""
 

@@ -28,7 +28,13 @@ from sb3_comm.common.layout import HybridActionLayout
 from sb3_comm.common.networks import mlp
 from sb3_comm.common.validation import check_observation
 
-__all__ = ["HybridPolicy"]
+__all__ = ["SCORE_GRADIENTS", "SWITCH_MARGIN", "HybridPolicy"]
+
+SCORE_GRADIENTS = ("critic", "alternatives")
+"""What moves the action scores of a hybrid actor (:class:`HybridPolicy`'s ``score_gradient``)."""
+
+SWITCH_MARGIN = 0.05
+"""How far above the other scores an alternative's score is put when the critic rates it."""
 
 
 class HybridPolicy(BasePolicy):
@@ -42,6 +48,11 @@ class HybridPolicy(BasePolicy):
     :param net_arch: hidden widths of actor and critic, or a dict with keys ``pi`` and ``qf``.
     :param activation_fn: hidden activation (leaky ReLU, slope 0.01, as the reference code).
     :param n_critics: 1 for DDPG, 2 for TD3's clipped double Q.
+    :param score_gradient: what moves the action scores of a hybrid action: ``"critic"`` (the
+        ICLR 2016 agent: the critic's gradient ``dQ/ds`` at the actor's scores) or
+        ``"alternatives"`` (each score by the critic's advantage of executing its discrete action
+        with the actor's current parameters, ``Q_k − mean_j Q_j``; see
+        :meth:`critic_action_gradients`).
     :param optimizer_class: optimizer of actor and critic.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
@@ -60,9 +71,13 @@ class HybridPolicy(BasePolicy):
         net_arch: list[int] | dict[str, list[int]] | None = None,
         activation_fn: type[nn.Module] = nn.LeakyReLU,
         n_critics: int = 1,
+        score_gradient: str = "critic",
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
+        if score_gradient not in SCORE_GRADIENTS:
+            raise ValueError(f"score_gradient must be one of {list(SCORE_GRADIENTS)}, got {score_gradient!r}")
+        self.score_gradient = score_gradient
         super().__init__(
             observation_space,
             action_space,
@@ -169,7 +184,40 @@ class HybridPolicy(BasePolicy):
         current = out.detach().requires_grad_(True)
         own_q = self.q_values(obs, current)[0]
         grad = th.autograd.grad(own_q.sum(), current)[0]
+        if self.score_gradient == "alternatives" and self.hybrid_layout is not None:
+            n = self.hybrid_layout.n_actions
+            grad[..., :n] = self.alternative_advantages(obs, out.detach()).reshape(grad[..., :n].shape)
         return grad, own_q.detach()
+
+    def alternative_advantages(self, obs: th.Tensor, out: th.Tensor) -> th.Tensor:
+        """The critic's advantage of executing each discrete action with the actor's parameters.
+
+        For action ``k``, its score is put :data:`SWITCH_MARGIN` above the highest score (at most
+        1) and every other score at least that margin below it, everything else as the actor
+        outputs it: ``Q_k`` is the first critic's value of switching to ``k`` (for the argmax
+        action, about the actor's own value). The scores' ascent direction is ``Q_k − mean_j Q_j``:
+        with ``"critic"``, the scores of actions that are not taken get only the critic's gradient
+        at the actor's scores, which fades where the critic sees those actions rarely, and they
+        drift until one overtakes the chosen action (what made Blind Soccer's runs collapse, see
+        ``benchmarks/results/collapse_anatomy_blind_soccer_gsn_relabel_seed7.md``).
+
+        :param obs: observations.
+        :param out: bounded actor outputs (detached).
+        :return: ``(..., n_actions)`` advantages, in the shape of ``Q`` with the actions last.
+        """
+        assert self.hybrid_layout is not None
+        n = self.hybrid_layout.n_actions
+        scores = out[..., :n]
+        switched = (scores.max(dim=-1, keepdim=True).values + SWITCH_MARGIN).clamp(max=1.0)
+        values = []
+        with th.no_grad():
+            for k in range(n):
+                alternative = out.clone()
+                alternative[..., :n] = th.minimum(scores, switched - SWITCH_MARGIN)
+                alternative[..., k : k + 1] = switched
+                values.append(self.q_values(obs, alternative)[0])
+        q = th.stack(values, dim=-1)
+        return q - q.mean(dim=-1, keepdim=True)
 
     # ---------------------------------------------------------------------------- SB3 API --
     def forward(self, obs: th.Tensor, deterministic: bool = True) -> th.Tensor:
@@ -236,6 +284,7 @@ class HybridPolicy(BasePolicy):
             net_arch=self.net_arch,
             activation_fn=self.activation_fn,
             n_critics=self.n_critics,
+            score_gradient=self.score_gradient,
             lr_schedule=self._dummy_schedule,
             optimizer_class=self.optimizer_class,
             optimizer_kwargs=self.optimizer_kwargs,
