@@ -54,7 +54,9 @@ def anatomy(model_path: Path, seed: int, n_games: int) -> dict[str, Any]:
     kinds = np.zeros((2, 3))
     forward = turn_size = turn_after_turn = turns = 0.0
     previous_kind = np.full(n_games, -1)
+    seen = []
     while live.any():
+        seen.append(obs[live].copy())
         action, _ = model.predict(obs, deterministic=True)
         rows = np.asarray(action).reshape(n_games, 2, -1)
         kind = np.argmax(rows[..., :3], axis=-1)  # ties to the lowest index, as the task
@@ -73,6 +75,7 @@ def anatomy(model_path: Path, seed: int, n_games: int) -> dict[str, Any]:
         for i in np.flatnonzero(dones & live):
             returns[i] = float(np.mean(infos[i]["agent_returns"]))
             live[i] = False
+    scores = score_statistics(model, np.concatenate(seen), blind)
     steps = kinds.sum(axis=1, keepdims=True)
     shares = kinds / np.maximum(steps, 1)
     assert np.all(high >= low)
@@ -82,6 +85,29 @@ def anatomy(model_path: Path, seed: int, n_games: int) -> dict[str, Any]:
         "blind_forward_dash_share": forward / max(kinds[blind, 0], 1),
         "blind_mean_turn_degrees": turn_size / max(turns, 1),
         "blind_turn_after_turn_share": turn_after_turn / max(turns, 1),
+        **scores,
+    }
+
+
+def score_statistics(model: Any, observations: np.ndarray, agent: int) -> dict[str, Any]:
+    """The agent's action scores on the observations its team met: their means, the margin of the
+    chosen score over the next one, and the critic's gradient ``dQ/ds`` on the chosen score and on
+    the others (the ICLR 2016 agent's score gradient)."""
+    import torch as th
+
+    policy = model.policy
+    obs = th.as_tensor(observations, dtype=th.float32).reshape(-1, *model.observation_space.shape)
+    out = policy.actor_outputs(obs).detach().requires_grad_(True)
+    grad = th.autograd.grad(policy.q_values(obs, out)[0][:, agent].sum(), out)[0][:, agent, :3]
+    scores = out.detach()[:, agent, :3]
+    top = scores.topk(2, dim=-1).values
+    chosen = th.zeros_like(scores, dtype=th.bool)
+    chosen[th.arange(len(scores)), scores.argmax(dim=-1)] = True
+    return {
+        "blind_scores_mean": scores.mean(dim=0).tolist(),
+        "blind_score_margin": float((top[:, 0] - top[:, 1]).mean()),
+        "blind_dq_chosen_score": float(grad[chosen].mean()),
+        "blind_dq_other_scores": float(grad[~chosen].mean()),
     }
 
 
@@ -140,6 +166,21 @@ def swap_tables(paths: dict[int, Path], seed: int, n_games: int, oracle: float) 
     return {"steps": steps, "returns": returns, "critic_ratings": ratings}
 
 
+def matrix(title: str, corner: str, labels: list[str], values: list[list[float]], fmt: str) -> list[str]:
+    """A Markdown section with a square table of ``values``, rows and columns named ``labels``."""
+    return [
+        "",
+        f"## {title}",
+        "",
+        f"| {corner} | " + " | ".join(labels) + " |",
+        "|---|" + "---:|" * len(labels),
+        *(
+            f"| {label} | " + " | ".join(fmt.format(v) for v in row) + " |"
+            for label, row in zip(labels, values, strict=True)
+        ),
+    ]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -169,14 +210,17 @@ def main() -> None:
         print(steps, round(point["fraction"], 2), flush=True)
     rows = [
         "| steps | return (× oracle) | blind: dash / turn / kick | blind dashes straight ahead | "
-        "blind mean turn (°) | blind turns after a turn | sighted: dash / turn / kick |",
-        "|---:|---:|---|---:|---:|---:|---|",
+        "blind mean turn (°) | blind turns after a turn | sighted: dash / turn / kick | "
+        "blind scores (dash, turn, kick) | blind score margin | blind dQ/ds chosen | blind dQ/ds others |",
+        "|---:|---:|---|---:|---:|---:|---|---|---:|---:|---:|",
     ]
     for p in points:
         blind, sighted = (" / ".join(f"{p['shares'][a][k]:.2f}" for k in KINDS) for a in ("blind", "sighted"))
         rows.append(
             f"| {p['timesteps']:,} | {p['fraction']:.2f} | {blind} | {p['blind_forward_dash_share']:.2f} | "
-            f"{p['blind_mean_turn_degrees']:.0f} | {p['blind_turn_after_turn_share']:.2f} | {sighted} |"
+            f"{p['blind_mean_turn_degrees']:.0f} | {p['blind_turn_after_turn_share']:.2f} | {sighted} | "
+            f"{', '.join(f'{v:.2f}' for v in p['blind_scores_mean'])} | {p['blind_score_margin']:.2f} | "
+            f"{p['blind_dq_chosen_score']:+.4f} | {p['blind_dq_other_scores']:+.4f} |"
         )
     swap = None
     if args.swap:
@@ -186,32 +230,22 @@ def main() -> None:
             raise SystemExit(f"--swap: no checkpoints at steps {missing}; found {sorted(by_steps)}")
         swap = swap_tables({steps: by_steps[steps] for steps in args.swap}, args.seed, args.games, oracle)
         labels = [f"{steps // 1000}k" for steps in swap["steps"]]
-        rows += [
-            "",
-            "## Which part collapsed: agents (rows) with another checkpoint's GSN (columns)",
-            "",
-            "| agents from \\ GSN from | " + " | ".join(labels) + " |",
-            "|---|" + "---:|" * len(labels),
-            *(
-                f"| {label} | " + " | ".join(f"{v:.2f}" for v in row) + " |"
-                for label, row in zip(labels, swap["returns"], strict=True)
-            ),
-            "",
-            f"## The blind agent's mean Q: each critic (rows) rates each actor (columns), on the {labels[0]} "
-            "team's observations",
-            "",
-            "| critic from \\ actor from | " + " | ".join(labels) + " |",
-            "|---|" + "---:|" * len(labels),
-            *(
-                f"| {label} | " + " | ".join(f"{v:.3f}" for v in row) + " |"
-                for label, row in zip(labels, swap["critic_ratings"], strict=True)
-            ),
-        ]
+        rows += matrix(
+            "Which part collapsed: agents (rows) with another checkpoint's GSN (columns)",
+            "agents from \\ GSN from", labels, swap["returns"], "{:.2f}",
+        )  # fmt: skip
+        rows += matrix(
+            f"The blind agent's mean Q: each critic (rows) rates each actor (columns), on the "
+            f"{labels[0]} team's observations",
+            "critic from \\ actor from", labels, swap["critic_ratings"], "{:.3f}",
+        )  # fmt: skip
     notes = (
         f"\n\nRun `{args.run_dir}`; every checkpoint plays the same {args.games} games (seed {args.seed}), "
         f"one episode each, deterministic; oracle on those games {oracle:.4f}. Shares are over the steps "
         "of the episodes still running. 'Dashes straight ahead': dashes whose direction is within "
-        "±22.5° (the server's 45° grid makes them 0°). The sighted agent cannot move: its dash is a no-op."
+        "±22.5° (the server's 45° grid makes them 0°). The sighted agent cannot move: its dash is a no-op. "
+        "Scores, margin (chosen score minus the next highest) and the critic's gradient on the chosen "
+        "score and on the others: the blind agent's, on the observations its team met in those games."
     )
     write_results(
         args.name,

@@ -48,6 +48,13 @@ def seed_row(
     }
 
 
+def reach_cells(row: dict[str, Any]) -> tuple[str, str]:
+    """A :func:`seed_row`'s first step at the bar and lowest later fraction, as table cells."""
+    first = f"{row['first_reach_step']:,}" if row["first_reach_step"] is not None else "never"
+    lowest = f"{row['lowest_after_reach']:.2f}" if row["lowest_after_reach"] is not None else "—"
+    return first, lowest
+
+
 def paired_oracles(env_id: str, runs: list[dict[str, Any]]) -> dict[str, float]:
     """The oracle's mean return on the very games of the periodic and final evaluations.
 
@@ -115,8 +122,7 @@ def main() -> None:
             "|---:|---:|---:|---:|---|---|---|",
         ]
         for r in rows_data:
-            first = f"{r['first_reach_step']:,}" if r["first_reach_step"] is not None else "never"
-            lowest = f"{r['lowest_after_reach']:.2f}" if r["lowest_after_reach"] is not None else "—"
+            first, lowest = reach_cells(r)
             ok = r["ends_above"] and r["stays_above_floor"]
             rows.append(
                 f"| {r['seed']} | {r['final_fraction']:.2f} | {first} | {lowest} | "

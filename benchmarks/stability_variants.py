@@ -21,7 +21,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
-from stability import paired_oracles, seed_row
+from stability import paired_oracles, reach_cells, seed_row
 
 LEARNED = 0.5
 """A collapse is measured from the first periodic evaluation at this fraction of the oracle on: the
@@ -85,8 +85,7 @@ def main() -> None:
         "|---|---:|---:|---:|---:|---|---:|---|",
     ]
     for r in all_rows:
-        first = f"{r['first_reach_step']:,}" if r["first_reach_step"] is not None else "never"
-        lowest = f"{r['lowest_after_reach']:.2f}" if r["lowest_after_reach"] is not None else "—"
+        first, lowest = reach_cells(r)
         collapses = ", ".join(f"{step // 1000}k: {value:.2f}" for step, value in r["collapses"]) or "none"
         ok = r["ends_above"] and r["stays_above_floor"]
         table.append(
