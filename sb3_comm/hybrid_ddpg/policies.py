@@ -198,8 +198,9 @@ class HybridPolicy(BasePolicy):
         action, about the actor's own value). The scores' ascent direction is ``Q_k − mean_j Q_j``:
         with ``"critic"``, the scores of actions that are not taken get only the critic's gradient
         at the actor's scores, which fades where the critic sees those actions rarely, and they
-        drift until one overtakes the chosen action (what made Blind Soccer's runs collapse, see
-        ``benchmarks/results/collapse_anatomy_blind_soccer_gsn_relabel_seed7.md``).
+        drift until one overtakes the chosen action (seen before Blind Soccer's collapses,
+        ``benchmarks/results/collapse_anatomy_blind_soccer_gsn_relabel_seed7.md``; this option
+        alone did not prevent them, ``benchmarks/results/blind_soccer_gsn_variants.md``).
 
         :param obs: observations.
         :param out: bounded actor outputs (detached).
