@@ -65,5 +65,6 @@ def test_a_team_gets_one_advantage_per_agent_and_keeps_the_option_through_save_a
 
 
 def test_an_unknown_score_gradient_is_a_clear_error() -> None:
-    with pytest.raises(ValueError, match=r"policy_kwargs\['score_gradient'\] must be 'critic' or 'alternatives', got 'argmax'"):
+    expected = r"policy_kwargs\['score_gradient'\] must be 'critic' or 'alternatives', got 'argmax'"
+    with pytest.raises(ValueError, match=expected):
         HybridDDPG("MlpPolicy", "HFOMoveToBall-v0", policy_kwargs={"score_gradient": "argmax"}, device="cpu")
