@@ -204,6 +204,10 @@ SIZE = Range(1, whole=True)
 UNIT = Range(0.0, 1.0)
 RATE = LearningRate()
 
+SCORE_GRADIENTS = ("critic", "alternatives")
+"""What moves the action scores of a hybrid actor (:class:`~sb3_comm.hybrid_ddpg.policies.HybridPolicy`'s
+``score_gradient``)."""
+
 POLICY_KWARGS: dict[str, Check] = {
     "net_arch": Widths(pi_qf=True),
     "n_critics": SIZE,
@@ -211,7 +215,7 @@ POLICY_KWARGS: dict[str, Check] = {
     "gsn_reward_net_arch": Widths(),
     "share_parameters": Flag(),
     "gsn_normalize_rewards": Flag(),
-    "score_gradient": OneOf(("critic", "alternatives")),
+    "score_gradient": OneOf(SCORE_GRADIENTS),
 }
 """What the checked entries of ``policy_kwargs`` accept (others are left to the policy)."""
 

@@ -26,12 +26,9 @@ from torch import nn
 
 from sb3_comm.common.layout import HybridActionLayout
 from sb3_comm.common.networks import mlp
-from sb3_comm.common.validation import check_observation
+from sb3_comm.common.validation import SCORE_GRADIENTS, check_observation
 
 __all__ = ["SCORE_GRADIENTS", "SWITCH_MARGIN", "HybridPolicy"]
-
-SCORE_GRADIENTS = ("critic", "alternatives")
-"""What moves the action scores of a hybrid actor (:class:`HybridPolicy`'s ``score_gradient``)."""
 
 SWITCH_MARGIN = 0.05
 """How far above the other scores an alternative's score is put when the critic rates it."""
