@@ -45,6 +45,7 @@ class CommPolicy(HybridPolicy):
     :param share_parameters: one set of networks for both agents, or one per agent (paper).
     :param n_critics: 1 for DDPG, 2 for TD3's clipped double Q.
     :param score_gradient: what moves the action scores (see :class:`HybridPolicy`).
+    :param critic_layer_norm: normalised hidden layers in the critics (see :class:`HybridPolicy`).
     :param gsn_net_arch: hidden widths of the GSN message extractor ``M``.
     :param gsn_reward_net_arch: hidden widths of the GSN reward model ``R``.
     :param gsn_message_activation: ``"tanh"`` or ``"linear"`` (see the GSN).
@@ -70,6 +71,7 @@ class CommPolicy(HybridPolicy):
         share_parameters: bool = True,
         n_critics: int = 1,
         score_gradient: str = "critic",
+        critic_layer_norm: bool = False,
         gsn_net_arch: list[int] | None = None,
         gsn_reward_net_arch: list[int] | None = None,
         gsn_message_activation: str = "tanh",
@@ -101,6 +103,7 @@ class CommPolicy(HybridPolicy):
             activation_fn=activation_fn,
             n_critics=n_critics,
             score_gradient=score_gradient,
+            critic_layer_norm=critic_layer_norm,
             optimizer_class=optimizer_class,
             optimizer_kwargs=optimizer_kwargs,
         )
@@ -135,7 +138,7 @@ class CommPolicy(HybridPolicy):
         layout = self.comm_layout
         return AgentMLPs(
             layout.n_agents, layout.obs_dim + self.actor_out_dim, 1, self.critic_arch, self.activation_fn,
-            self.share_parameters,
+            self.share_parameters, self.critic_layer_norm,
         )  # fmt: skip
 
     def _build(self, lr_schedule: Schedule) -> None:

@@ -9,12 +9,21 @@ from torch import nn
 __all__ = ["AgentMLPs", "clip_gradients", "gradient_step", "inverting_gradients", "mlp"]
 
 
-def mlp(in_dim: int, out_dim: int, net_arch: list[int], activation_fn: type[nn.Module]) -> nn.Sequential:
-    """A plain multi-layer perceptron ``in_dim -> net_arch... -> out_dim`` (linear output)."""
+def mlp(
+    in_dim: int, out_dim: int, net_arch: list[int], activation_fn: type[nn.Module], layer_norm: bool = False
+) -> nn.Sequential:
+    """A multi-layer perceptron ``in_dim -> net_arch... -> out_dim`` (linear output).
+
+    :param layer_norm: a ``LayerNorm`` after each hidden ``Linear``, before its activation (it
+        draws no random numbers: a network is initialised the same with or without it).
+    """
     layers: list[nn.Module] = []
     last = in_dim
     for width in net_arch:
-        layers += [nn.Linear(last, width), activation_fn()]
+        layers.append(nn.Linear(last, width))
+        if layer_norm:
+            layers.append(nn.LayerNorm(width))
+        layers.append(activation_fn())
         last = width
     layers.append(nn.Linear(last, out_dim))
     return nn.Sequential(*layers)
@@ -32,6 +41,7 @@ class AgentMLPs(nn.Module):
     :param activation_fn: hidden activation class.
     :param share_parameters: one network for all agents (the role one-hot in the observation
         tells them apart) or one per agent, as in the paper.
+    :param layer_norm: hidden layers normalised (:func:`mlp`).
     """
 
     def __init__(
@@ -42,12 +52,15 @@ class AgentMLPs(nn.Module):
         net_arch: list[int],
         activation_fn: type[nn.Module],
         share_parameters: bool = True,
+        layer_norm: bool = False,
     ) -> None:
         super().__init__()
         self.n_agents = n_agents
         self.share_parameters = share_parameters
         count = 1 if share_parameters else n_agents
-        self.nets = nn.ModuleList([mlp(in_dim, out_dim, net_arch, activation_fn) for _ in range(count)])
+        self.nets = nn.ModuleList(
+            [mlp(in_dim, out_dim, net_arch, activation_fn, layer_norm) for _ in range(count)]
+        )
 
     def forward(self, x: th.Tensor) -> th.Tensor:
         """Apply the network(s) row by row."""

@@ -50,6 +50,8 @@ class HybridPolicy(BasePolicy):
         ``"alternatives"`` (each score by the critic's advantage of executing its discrete action
         with the actor's current parameters, ``Q_k − mean_j Q_j``; see
         :meth:`critic_action_gradients`).
+    :param critic_layer_norm: a ``LayerNorm`` after each hidden layer of the critics (off: the
+        ICLR 2016 agent). It keeps the critic's features on one scale while its targets move.
     :param optimizer_class: optimizer of actor and critic.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
@@ -69,12 +71,14 @@ class HybridPolicy(BasePolicy):
         activation_fn: type[nn.Module] = nn.LeakyReLU,
         n_critics: int = 1,
         score_gradient: str = "critic",
+        critic_layer_norm: bool = False,
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
         if score_gradient not in SCORE_GRADIENTS:
             raise ValueError(f"score_gradient must be one of {list(SCORE_GRADIENTS)}, got {score_gradient!r}")
         self.score_gradient = score_gradient
+        self.critic_layer_norm = bool(critic_layer_norm)
         super().__init__(
             observation_space,
             action_space,
@@ -112,7 +116,8 @@ class HybridPolicy(BasePolicy):
 
     def make_critic(self) -> nn.Module:
         """``[obs | actor outputs] -> Q``."""
-        return mlp(self.obs_dim + self.actor_out_dim, 1, self.critic_arch, self.activation_fn)
+        in_dim = self.obs_dim + self.actor_out_dim
+        return mlp(in_dim, 1, self.critic_arch, self.activation_fn, self.critic_layer_norm)
 
     def _build(self, lr_schedule: Schedule) -> None:
         """Actor, critics, their targets and the optimizers (in this order: it fixes the seeding)."""
@@ -283,6 +288,7 @@ class HybridPolicy(BasePolicy):
             activation_fn=self.activation_fn,
             n_critics=self.n_critics,
             score_gradient=self.score_gradient,
+            critic_layer_norm=self.critic_layer_norm,
             lr_schedule=self._dummy_schedule,
             optimizer_class=self.optimizer_class,
             optimizer_kwargs=self.optimizer_kwargs,
