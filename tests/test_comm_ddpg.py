@@ -168,6 +168,27 @@ def test_exploration_never_randomises_gsn_or_none_messages() -> None:
         assert not np.allclose(buffer_action[..., : sl.start], expected[..., : sl.start])
 
 
+def test_epsilon_gaussian_exploration_adds_noise_to_the_policy_rows_and_keeps_gsn_messages() -> None:
+    model = make_model("GSN", exploration="epsilon+gaussian", gaussian_noise_std=0.1)
+    model._last_obs = model.env.reset()
+    model.num_timesteps = 1_000  # after warm-up
+    sl = model.comm_layout.action_message_slice
+    expected = model.policy._predict(th.as_tensor(model._last_obs)).detach().numpy()
+    model.exploration_rate = 0.0  # no random rows: the noise alone
+    deviations = []
+    for _ in range(200):
+        _, buffer_action = model._sample_action(learning_starts=100, n_envs=2)
+        np.testing.assert_allclose(buffer_action[..., sl], expected[..., sl], atol=1e-6)
+        assert np.all(np.abs(buffer_action) <= 1.0)
+        deviations.append((buffer_action - expected)[..., : sl.start])
+    inside = np.abs(expected[..., : sl.start]) < 0.7  # unclipped entries: the noise's own spread
+    spread = np.stack(deviations)[:, inside]
+    assert abs(spread.std() - 0.1) < 0.01 and abs(spread.mean()) < 0.01
+    model.exploration_rate = 1.0  # every row random: uniform over [-1, 1], not near the policy
+    rows = np.stack([model._sample_action(learning_starts=100, n_envs=2)[1] for _ in range(200)])
+    assert np.abs(rows[..., : sl.start] - expected[..., : sl.start]).mean() > 0.4  # E|U − x| ≥ 0.5
+
+
 def test_inverting_gradients_formula() -> None:
     grad = th.tensor([1.0, -1.0, 2.0, -2.0, 1.0])
     value = th.tensor([0.5, 0.5, -1.0, -1.0, 1.5])

@@ -84,7 +84,8 @@ class CommDDPG(HybridDDPG):
     :param train_freq: update the model every ``train_freq`` steps.
     :param gradient_steps: updates after each rollout (-1: as many as steps collected).
     :param exploration: ``"epsilon"`` (ICLR 2016: with probability ε an agent takes uniformly
-        random action scores and parameters) or ``"gaussian"`` (Gaussian noise on every output).
+        random action scores and parameters), ``"gaussian"`` (Gaussian noise on every output) or
+        ``"epsilon+gaussian"`` (both: ε-random rows, Gaussian noise on the others).
     :param exploration_initial_eps: ε at the start.
     :param exploration_final_eps: ε after annealing.
     :param exploration_fraction: fraction of training over which ε is annealed linearly.

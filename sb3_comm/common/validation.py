@@ -204,6 +204,9 @@ SIZE = Range(1, whole=True)
 UNIT = Range(0.0, 1.0)
 RATE = LearningRate()
 
+EXPLORATIONS = ("epsilon", "gaussian", "epsilon+gaussian")
+"""Exploration modes of :class:`~sb3_comm.hybrid_ddpg.HybridDDPG` (its ``exploration``)."""
+
 SCORE_GRADIENTS = ("critic", "alternatives")
 """What moves the action scores of a hybrid actor (:class:`~sb3_comm.hybrid_ddpg.policies.HybridPolicy`'s
 ``score_gradient``)."""
@@ -216,6 +219,7 @@ POLICY_KWARGS: dict[str, Check] = {
     "share_parameters": Flag(),
     "gsn_normalize_rewards": Flag(),
     "score_gradient": OneOf(SCORE_GRADIENTS),
+    "critic_layer_norm": Flag(),
 }
 """What the checked entries of ``policy_kwargs`` accept (others are left to the policy)."""
 
@@ -251,7 +255,7 @@ HYPERPARAMETERS: dict[str, Check] = {
     "gamma": UNIT,
     "train_freq": TrainFrequency(),
     "gradient_steps": Range(1, whole=True, special=(-1,), hint="-1: as many updates as steps collected"),
-    "exploration": OneOf(("epsilon", "gaussian")),
+    "exploration": OneOf(EXPLORATIONS),
     "exploration_initial_eps": UNIT,
     "exploration_final_eps": UNIT,
     "exploration_fraction": UNIT,

@@ -113,7 +113,9 @@ class HybridDDPG(TD3):
     :param train_freq: update the model every ``train_freq`` steps.
     :param gradient_steps: updates after each rollout (-1: as many as steps collected).
     :param exploration: ``"epsilon"`` (ICLR 2016: with probability ε take uniformly random action
-        scores and parameters) or ``"gaussian"`` (Gaussian noise on every output).
+        scores and parameters), ``"gaussian"`` (Gaussian noise on every output) or
+        ``"epsilon+gaussian"`` (both: ε-random rows, Gaussian noise on the others, so that the
+        critic also sees actions near the actor's own, where its action gradient is read).
     :param exploration_initial_eps: ε at the start.
     :param exploration_final_eps: ε after annealing.
     :param exploration_fraction: fraction of training over which ε is annealed linearly.
@@ -332,8 +334,8 @@ class HybridDDPG(TD3):
         """Policy action plus exploration, in the environment's units and SB3's scaled units.
 
         ε-greedy (ICLR 2016): with probability ε an action's scores and parameters are drawn
-        uniformly (per agent row, and only the explorable entries); otherwise the policy's.
-        Before ``learning_starts`` ε = 1.
+        uniformly (per agent row, and only the explorable entries); otherwise the policy's, plus
+        Gaussian noise with ``exploration="epsilon+gaussian"``. Before ``learning_starts`` ε = 1.
         """
         obs = obs_as_tensor(self._last_obs, self.device)  # type: ignore[arg-type]
         with th.no_grad():
@@ -341,10 +343,13 @@ class HybridDDPG(TD3):
         # One action row per agent: (n_envs, action_dim) or (n_envs, n_agents, action_dim).
         rows = scaled.reshape(n_envs, *self.action_space.shape)  # type: ignore[misc]
         warmup = self.num_timesteps < learning_starts
-        if self.exploration == "epsilon" or warmup:
+        if self.exploration != "gaussian" or warmup:
             epsilon = 1.0 if warmup else self.exploration_rate
             pick = np.random.random((*rows.shape[:-1], 1)) < epsilon
             random_rows = np.random.uniform(-1.0, 1.0, size=rows.shape).astype(np.float32)
+            if self.exploration == "epsilon+gaussian" and not warmup:
+                noise = np.random.normal(0.0, self.gaussian_noise_std, size=rows.shape).astype(np.float32)
+                rows = np.clip(rows + noise * self._explorable, -1.0, 1.0)
             rows = np.where(pick & self._explorable, random_rows, rows)
         else:
             noise = np.random.normal(0.0, self.gaussian_noise_std, size=rows.shape).astype(np.float32)
