@@ -25,6 +25,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
 from stability import paired_oracles
+from stability_variants import labelled_paths, sources_text, step_fractions
 
 BIN = 25_000
 """Evaluation steps are grouped by this many steps (``benchmarks/solve.py --eval-freq 25000``)."""
@@ -60,10 +61,8 @@ def main() -> None:
     parser.add_argument("--name", required=True)
     args = parser.parse_args()
     rows, tasks = [], set()
-    for item in args.variants:
-        label, _, path = item.partition("=")
-        if not path:
-            raise SystemExit(f"expected label=path, got {item!r}")
+    pairs = labelled_paths(args.variants)
+    for label, path in pairs:
         data = json.loads(Path(path).read_text())
         tasks.add(data["env"])
         paired = paired_oracles(data["env"], data["runs"])
@@ -89,13 +88,13 @@ def main() -> None:
     ]
     for r in rows:
         first = r["first_learned"]
-        falls = ", ".join(f"{s // 1000}k: {v:.2f}" for s, v in r["falls"]) or "none"
+        falls = step_fractions(r["falls"])
         after = ", ".join(f"{(s - first) // 1000}k" for s, _ in r["falls"]) if first is not None else ""
         per_run.append(
             f"| {r['variant']} | {r['seed']} | {'never' if first is None else f'{first // 1000}k'} | "
             f"{falls} | {after or '—'} |"
         )
-    sources = "; ".join(f"{item.partition('=')[0]}: `{item.partition('=')[2]}`" for item in args.variants)
+    sources = sources_text(pairs)
     notes = (
         f"\n\nTask `{tasks.pop()}`, {len(rows)} runs. A run has learned once a periodic evaluation "
         f"reached {args.learned} × oracle; an evaluation falls when it is ≥ {args.fall} × oracle below "

@@ -28,6 +28,27 @@ LEARNED = 0.5
 early swings of a team that has learned nothing yet are not collapses."""
 
 
+def labelled_paths(items: list[str]) -> list[tuple[str, str]]:
+    """``label=path`` arguments as ``(label, path)`` pairs; anything else is an error."""
+    pairs = []
+    for item in items:
+        label, _, path = item.partition("=")
+        if not path:
+            raise SystemExit(f"expected label=path, got {item!r}")
+        pairs.append((label, path))
+    return pairs
+
+
+def sources_text(pairs: list[tuple[str, str]]) -> str:
+    """The results files a table was made from: ``label: `path`; ...``."""
+    return "; ".join(f"{label}: `{path}`" for label, path in pairs)
+
+
+def step_fractions(points: list[tuple[int, float]]) -> str:
+    """``(step, fraction)`` pairs as ``425k: 0.50, ...``, or ``none``."""
+    return ", ".join(f"{step // 1000}k: {value:.2f}" for step, value in points) or "none"
+
+
 def variant_rows(label: str, path: str, reach: float, floor: float) -> tuple[str, list[dict[str, Any]]]:
     """The per-seed criteria of one variant's results file; returns its task and the rows."""
     data = json.loads(Path(path).read_text())
@@ -69,10 +90,8 @@ def main() -> None:
     parser.add_argument("--name", required=True)
     args = parser.parse_args()
     tasks, all_rows = set(), []
-    for item in args.variants:
-        label, _, path = item.partition("=")
-        if not path:
-            raise SystemExit(f"expected label=path, got {item!r}")
+    pairs = labelled_paths(args.variants)
+    for label, path in pairs:
         task, rows = variant_rows(label, path, args.reach, args.floor)
         tasks.add(task)
         all_rows.extend(rows)
@@ -86,13 +105,13 @@ def main() -> None:
     ]
     for r in all_rows:
         first, lowest = reach_cells(r)
-        collapses = ", ".join(f"{step // 1000}k: {value:.2f}" for step, value in r["collapses"]) or "none"
+        collapses = step_fractions(r["collapses"])
         ok = r["ends_above"] and r["stays_above_floor"]
         table.append(
             f"| {r['variant']} | {r['seed']} | {r['final_fraction']:.2f} | {first} | {lowest} | "
             f"{collapses} | {r['drawdown']:.2f} | {'yes' if ok else '**no**'} |"
         )
-    sources = "; ".join(f"{item.partition('=')[0]}: `{item.partition('=')[2]}`" for item in args.variants)
+    sources = sources_text(pairs)
     notes = (
         f"\n\nTask `{tasks.pop()}`. Fractions of the oracle's return on the same 100 games (periodic "
         f"evaluations and final evaluation each on their own games). A seed passes when it ends at ≥ "
