@@ -81,11 +81,13 @@ def fail_zip_writes_after(monkeypatch: pytest.MonkeyPatch, n_good: int) -> None:
     """Zip archives (models, checkpoints) get half written, then the disk is full, from the
     ``n_good + 1``-th archive on."""
     original = zipfile.ZipFile.writestr
-    seen: set[int] = set()
+    opened = [0]  # archives numbered on their first write; not id(), which a new archive may reuse
 
     def writestr(self: zipfile.ZipFile, name: Any, data: Any, *args: Any, **kwargs: Any) -> None:
-        seen.add(id(self))
-        if len(seen) > n_good:
+        if not hasattr(self, "_test_archive_number"):
+            opened[0] += 1
+            self._test_archive_number = opened[0]  # type: ignore[attr-defined]
+        if self._test_archive_number > n_good:  # type: ignore[attr-defined]
             original(self, name, data[: len(data) // 2], *args, **kwargs)
             raise full_disk()
         original(self, name, data, *args, **kwargs)
