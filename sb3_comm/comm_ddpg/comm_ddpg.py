@@ -139,7 +139,7 @@ class CommDDPG(HybridDDPG):
         gsn_max_weight: float = 0.5,
         gsn_max_signals: str = "both",
         gsn_max_explore_messages: bool = True,
-        buffer_size: int = 200_000,
+        buffer_size: int = 1_000_000,
         learning_starts: int = 1_000,
         batch_size: int = 64,
         tau: float = 0.005,

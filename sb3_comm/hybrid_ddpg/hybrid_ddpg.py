@@ -151,7 +151,7 @@ class HybridDDPG(TD3):
         env: GymEnv | str,
         learning_rate: float | Schedule = 1e-3,
         actor_learning_rate: float | Schedule = 1e-4,
-        buffer_size: int = 200_000,
+        buffer_size: int = 1_000_000,
         learning_starts: int = 1_000,
         batch_size: int = 64,
         tau: float = 0.005,
