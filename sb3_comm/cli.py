@@ -87,6 +87,23 @@ def _count(minimum: int, meaning: str = "") -> Callable[[str], int]:
     return parse
 
 
+def _device(text: str) -> str:
+    """An argparse type: a torch device this machine has (``auto``, ``cpu``, ``cuda``, ``cuda:1``, ...);
+    a GPU torch cannot see exits 2 here, before a run folder exists."""
+    from sb3_comm.common.validation import Device
+
+    try:
+        Device()("--device", text)
+    except (TypeError, ValueError) as error:
+        raise argparse.ArgumentTypeError(
+            str(error).removeprefix("--device=").removeprefix("--device ")
+        ) from None
+    return text
+
+
+_device.__name__ = "device"
+
+
 def _check_env_id(env_id: str) -> str:
     """A Gymnasium id that is registered (the packaged tasks are, by ``import sb3_comm``)."""
     import gymnasium as gym
@@ -452,7 +469,9 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="continue an interrupted run from its last checkpoint, with its own settings",
     )
-    train.add_argument("--device", default="cpu")
+    train.add_argument(
+        "--device", type=_device, default="cpu", help="torch device: cpu, cuda, cuda:<index> or auto"
+    )
     train.add_argument("--no-progress-bar", action="store_true")
     train.add_argument("--verbose", type=int, default=0, help="verbosity of the algorithm (0, 1, 2)")
     train.set_defaults(func=_train)
@@ -469,7 +488,9 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="also write the messages of --episodes games to TensorBoard's Embedding Projector in TB_DIR",
     )
-    evaluate.add_argument("--device", default="cpu")
+    evaluate.add_argument(
+        "--device", type=_device, default="cpu", help="torch device: cpu, cuda, cuda:<index> or auto"
+    )
     evaluate.set_defaults(func=_evaluate)
 
     video = sub.add_parser("record-video", help="write a GIF or MP4 of a saved model, messages shown as bars")
@@ -480,7 +501,9 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--seed", type=int, default=0)
     video.add_argument("--fps", type=_count(1), default=10)
     video.add_argument("--no-comm", action="store_true", help="receivers hear zeros (the paper's ablation)")
-    video.add_argument("--device", default="cpu")
+    video.add_argument(
+        "--device", type=_device, default="cpu", help="torch device: cpu, cuda, cuda:<index> or auto"
+    )
     video.set_defaults(func=_record_video)
 
     zoo = sub.add_parser(

@@ -24,10 +24,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import torch as th
 
 __all__ = [
     "HYPERPARAMETERS",
     "POLICY_KWARGS",
+    "Device",
     "LearningRate",
     "Range",
     "check_hyperparameters",
@@ -198,6 +200,44 @@ class Flag:
             raise TypeError(f"{name} must be True or False, got {value!r} ({type(value).__name__})")
 
 
+@dataclass(frozen=True)
+class Device:
+    """A torch device: ``"auto"`` (a GPU where torch sees one, else the CPU), ``"cpu"``,
+    ``"cuda"``, ``"cuda:<index>"``, another name torch knows, or a ``torch.device``.
+
+    A GPU that torch cannot see is an error here: SB3 would fall back to the CPU without a word,
+    and a run asked for on a GPU would train, many times slower, on the CPU.
+    """
+
+    def __call__(self, name: str, value: Any) -> None:
+        if isinstance(value, str) and value == "auto":
+            return
+        if not isinstance(value, str | th.device):
+            raise TypeError(
+                f"{name} must be 'auto', 'cpu', 'cuda', 'cuda:<index>' or a torch.device, "
+                f"got {value!r} ({type(value).__name__})"
+            )
+        try:
+            device = th.device(value)
+        except (RuntimeError, ValueError):
+            raise ValueError(
+                f"{name} must be 'auto', 'cpu', 'cuda', 'cuda:<index>' or another device name torch "
+                f"knows, got {value!r}"
+            ) from None
+        if device.type == "cuda":
+            count = th.cuda.device_count() if th.cuda.is_available() else 0
+            if count == 0:
+                build = f"CUDA {th.version.cuda}" if th.version.cuda else "a CPU-only build"
+                raise ValueError(
+                    f"{name}={str(value)!r} asks for a GPU, but torch {th.__version__} ({build}) sees no "
+                    "CUDA device here; use 'cpu', or 'auto' (a GPU where there is one, else the CPU)"
+                )
+            if device.index is not None and device.index >= count:
+                raise ValueError(
+                    f"{name}={str(value)!r}: torch sees {count} CUDA device(s), indices 0 to {count - 1}"
+                )
+
+
 Check = Callable[[str, Any], None]
 
 SIZE = Range(1, whole=True)
@@ -271,6 +311,7 @@ HYPERPARAMETERS: dict[str, Check] = {
     "target_noise_clip": Range(0.0),
     "stats_window_size": SIZE,
     "policy_kwargs": check_policy_kwargs,
+    "device": Device(),
 }
 """What each hyperparameter of :class:`~sb3_comm.CommDDPG` (and :class:`~sb3_comm.HybridDDPG`) accepts."""
 
