@@ -104,6 +104,13 @@ def _device(text: str) -> str:
 _device.__name__ = "device"
 
 
+def _add_device_argument(parser: argparse.ArgumentParser) -> None:
+    """``--device``, checked at parse time (:func:`_device`); default the CPU."""
+    parser.add_argument(
+        "--device", type=_device, default="cpu", help="torch device: cpu, cuda, cuda:<index> or auto"
+    )
+
+
 def _check_env_id(env_id: str) -> str:
     """A Gymnasium id that is registered (the packaged tasks are, by ``import sb3_comm``)."""
     import gymnasium as gym
@@ -469,9 +476,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="continue an interrupted run from its last checkpoint, with its own settings",
     )
-    train.add_argument(
-        "--device", type=_device, default="cpu", help="torch device: cpu, cuda, cuda:<index> or auto"
-    )
+    _add_device_argument(train)
     train.add_argument("--no-progress-bar", action="store_true")
     train.add_argument("--verbose", type=int, default=0, help="verbosity of the algorithm (0, 1, 2)")
     train.set_defaults(func=_train)
@@ -488,9 +493,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="also write the messages of --episodes games to TensorBoard's Embedding Projector in TB_DIR",
     )
-    evaluate.add_argument(
-        "--device", type=_device, default="cpu", help="torch device: cpu, cuda, cuda:<index> or auto"
-    )
+    _add_device_argument(evaluate)
     evaluate.set_defaults(func=_evaluate)
 
     video = sub.add_parser("record-video", help="write a GIF or MP4 of a saved model, messages shown as bars")
@@ -501,9 +504,7 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--seed", type=int, default=0)
     video.add_argument("--fps", type=_count(1), default=10)
     video.add_argument("--no-comm", action="store_true", help="receivers hear zeros (the paper's ablation)")
-    video.add_argument(
-        "--device", type=_device, default="cpu", help="torch device: cpu, cuda, cuda:<index> or auto"
-    )
+    _add_device_argument(video)
     video.set_defaults(func=_record_video)
 
     zoo = sub.add_parser(

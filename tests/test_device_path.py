@@ -78,8 +78,7 @@ def test_training_and_evaluation_make_every_tensor_on_the_model_device(
     th.set_default_device("meta")
     model.learn(60)
     assert model.n_updates > 0
-    params = [p for p in model.policy.parameters()]
-    assert all(p.device.type == "cpu" and th.isfinite(p).all() for p in params)
+    assert all(p.device.type == "cpu" and th.isfinite(p).all() for p in model.policy.parameters())
     obs = model.env.reset()
     actions, _ = model.predict(obs, deterministic=True)
     assert np.isfinite(actions).all()
