@@ -137,6 +137,23 @@ def test_linear_schedules_for_learning_rates() -> None:
         canonical_value("learning_rate", "lin_fast")
 
 
+def test_mc_mixing_may_be_a_linear_schedule(tmp_path) -> None:
+    from stable_baselines3.common.utils import LinearSchedule
+
+    from sb3_comm.config import RunConfig
+
+    path = tmp_path / "gsn.yml"
+    path.write_text("BlindSoccer-v0:\n  mc_mixing: lin_0.5\n  n_timesteps: 1000\n")
+    config = RunConfig.load("GSN", "BlindSoccer-v0", path=path)
+    assert config.hyperparams["mc_mixing"] == "lin_0.5"
+    beta = config.algorithm_kwargs()["mc_mixing"]
+    assert isinstance(beta, LinearSchedule)
+    assert (beta(1.0), beta(0.5), beta(0.0)) == pytest.approx((0.5, 0.25, 0))
+    path.write_text("BlindSoccer-v0:\n  mc_mixing: lin_2\n")
+    with pytest.raises(ValueError, match=r"mc_mixing: the schedule's value at progress 1.0 .*, got 2"):
+        RunConfig.load("GSN", "BlindSoccer-v0", path=path)
+
+
 def test_gsn_learning_rate_schedule_is_applied() -> None:
     from stable_baselines3.common.utils import LinearSchedule
 

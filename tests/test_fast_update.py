@@ -10,6 +10,7 @@ import threading
 import pytest
 import torch as th
 from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.utils import LinearSchedule
 from torch.nn import functional as F
 from toy_envs import coin_env
 
@@ -25,9 +26,11 @@ def _plain_adam(module: th.nn.Module, fast: th.optim.Optimizer) -> th.optim.Opti
     return plain
 
 
-def _reference_update(model: CommDDPG, ref, data, max_grad_norm: float) -> None:
-    """One DDPG update written out: TD target mixed with the Monte-Carlo return, critic step,
-    actor step on -Q(s, mu(s)), soft updates parameter by parameter."""
+def _reference_update(model: CommDDPG, ref, data, max_grad_norm: float, beta: float | None = None) -> None:
+    """One DDPG update written out: TD target mixed with the Monte-Carlo return (weight ``beta``,
+    default the model's ``mc_mixing``), critic step, actor step on -Q(s, mu(s)), soft updates
+    parameter by parameter."""
+    beta = model.mc_mixing if beta is None else beta
     critic_opt = _plain_adam(ref.critic, model.policy.critic.optimizer)
     actor_opt = _plain_adam(ref.actor, model.policy.actor.optimizer)
     obs, actions, next_obs = data.observations, data.actions, data.next_observations
@@ -36,7 +39,7 @@ def _reference_update(model: CommDDPG, ref, data, max_grad_norm: float) -> None:
         target = (
             data.rewards + (1.0 - data.dones) * model.gamma * ref.q_values(next_obs, next_out, target=True)[0]
         )
-        mixed = model.mc_mixing * data.mc_returns + (1.0 - model.mc_mixing) * target
+        mixed = beta * data.mc_returns + (1.0 - beta) * target
         target = th.where(data.mc_valid.bool(), mixed, target)
     critic_loss = F.mse_loss(ref.q_values(obs, actions)[0], target)
     critic_opt.zero_grad()
@@ -73,6 +76,28 @@ def test_one_fast_update_equals_the_reference(method: str) -> None:
         th.testing.assert_close(fast, slow, rtol=1e-5, atol=1e-6, msg=lambda m, n=name: f"{n}: {m}")
         moved += 1
     assert moved > 8
+
+
+def test_a_scheduled_mc_mixing_uses_beta_at_the_current_progress() -> None:
+    """``mc_mixing=LinearSchedule(0.5, 0, 1)`` halfway through training mixes with β = 0.25."""
+    env = make_vec_env(coin_env, n_envs=2, seed=0)
+    model = CommDDPG(
+        "NONE", env, batch_size=16, learning_starts=20, seed=0, tau=0.05, max_grad_norm=0.5,
+        mc_mixing=LinearSchedule(0.5, 0.0, 1.0), policy_kwargs={"net_arch": [16, 16]},
+    )  # fmt: skip
+    model.learn(60)
+    assert model.replay_buffer.store_mc_returns
+    model._current_progress_remaining = 0.5
+    model.train_log.pop_means()  # the values logged during learn
+    data = model.replay_buffer.sample(16)
+    assert bool(data.mc_valid.bool().any())
+    model.replay_buffer.sample = lambda *args, **kwargs: data
+    ref = copy.deepcopy(model.policy)
+    _reference_update(model, ref, data, max_grad_norm=0.5, beta=0.25)
+    model.train(gradient_steps=1, batch_size=16)
+    for (name, fast), slow in zip(model.policy.state_dict().items(), ref.state_dict().values(), strict=True):
+        th.testing.assert_close(fast, slow, rtol=1e-5, atol=1e-6, msg=lambda m, n=name: f"{n}: {m}")
+    assert model.train_log.pop_means()["train/mc_mixing"] == pytest.approx(0.25)
 
 
 def test_one_gsn_update_beside_the_agents_equals_the_reference(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -63,6 +63,8 @@ BAD_ARGUMENTS = [
     ({"exploration": "boltzmann"}, ValueError, r"exploration must be .*'epsilon\+gaussian'"),
     ({"gaussian_noise_std": -0.1}, ValueError, r"gaussian_noise_std must be a number ≥ 0"),
     ({"mc_mixing": 1.5}, ValueError, r"mc_mixing must be a number in \[0, 1\]"),
+    ({"mc_mixing": "lin_0.5"}, TypeError, r"mc_mixing must be .* or a callable schedule, got 'lin_0.5'"),
+    ({"mc_mixing": lambda progress: 2.0 * progress - 1.0}, ValueError, r"mc_mixing: .* progress 0.0 .* -1.0"),
     ({"tcg_gain": math.nan}, ValueError, r"tcg_gain must be a finite number, got nan"),
     ({"tcg_gain": math.inf}, ValueError, r"tcg_gain .* got inf"),
     ({"target_policy_noise": -1}, ValueError, r"target_policy_noise must be a number ≥ 0"),

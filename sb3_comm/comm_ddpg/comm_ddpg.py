@@ -94,7 +94,9 @@ class CommDDPG(HybridDDPG):
         (reference code: 0.5, on Blind Soccer what made learning stable, and what its packaged
         configuration uses; default: 0, the TD target: the Monte-Carlo return of an episode cut by
         a time limit is summed as if the episode had ended, which biases the critic on tasks whose
-        episodes are mostly truncated, see ``benchmarks/results/simple_reference_beta0.5.md``).
+        episodes are mostly truncated, see ``benchmarks/results/simple_reference_beta0.5.md``). A
+        callable is a schedule of the remaining progress (1 -> 0), as the learning rates
+        (``"lin_0.5"`` in a configuration: β decays linearly to 0).
     :param tcg_gain: scale of the teammate's gradient that trains TCG messages.
     :param relabel_messages: GSN only: replace the heard messages of every replayed transition by
         what the current message network sends for the stored observations (the previous step's
@@ -151,7 +153,7 @@ class CommDDPG(HybridDDPG):
         exploration_final_eps: float = 0.1,
         exploration_fraction: float = 0.2,
         gaussian_noise_std: float = 0.1,
-        mc_mixing: float = 0.0,
+        mc_mixing: float | Schedule = 0.0,
         tcg_gain: float = 1.0,
         relabel_messages: bool = False,
         channel_size: int | None = None,

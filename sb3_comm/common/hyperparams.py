@@ -6,7 +6,7 @@ A value is converted in one direction only, once:
   into the *text form* that run configurations keep, write to ``config.yml`` and fingerprint:
   YAML 1.1 reads ``1e-3`` (no dot) as a string, which becomes the number 0.001; a learning rate
   written ``lin_1e-3`` (rl-zoo3's notation for a linear decay from 1e-3 to 0 over training)
-  becomes ``lin_0.001``.
+  becomes ``lin_0.001``; so does the Monte-Carlo mixing β (``mc_mixing: lin_0.5``).
 * :func:`python_value` turns the text form into what an algorithm takes: a ``lin_`` string
   becomes a :class:`~stable_baselines3.common.utils.LinearSchedule`. Algorithms themselves take
   plain Python values only, as every SB3 algorithm does.
@@ -19,7 +19,7 @@ from typing import Any
 
 from stable_baselines3.common.utils import LinearSchedule
 
-__all__ = ["algorithm_kwargs", "canonical_value", "coerce_number", "python_value"]
+__all__ = ["SCHEDULED_KEYS", "algorithm_kwargs", "canonical_value", "coerce_number", "python_value"]
 
 _SCHEDULE_PREFIX = "lin_"
 
@@ -34,8 +34,13 @@ def coerce_number(value: Any) -> Any:
     return value
 
 
+SCHEDULED_KEYS = ("mc_mixing",)
+"""Hyperparameters besides the learning rates (``*learning_rate``) that may be written ``lin_<start>``."""
+
+
 def _is_schedule(key: str, value: Any) -> bool:
-    return key.endswith("learning_rate") and isinstance(value, str) and value.startswith(_SCHEDULE_PREFIX)
+    scheduled = key.endswith("learning_rate") or key in SCHEDULED_KEYS
+    return scheduled and isinstance(value, str) and value.startswith(_SCHEDULE_PREFIX)
 
 
 def _schedule_start(key: str, value: str) -> float:
@@ -56,8 +61,8 @@ def canonical_value(key: str, value: Any) -> Any:
 
 
 def python_value(key: str, value: Any) -> Any:
-    """The Python value of a text-form hyperparameter: ``lin_<start>`` learning rates become
-    ``LinearSchedule(start, 0, 1)``; everything else is returned as it is."""
+    """The Python value of a text-form hyperparameter: ``lin_<start>`` learning rates (and
+    ``mc_mixing``) become ``LinearSchedule(start, 0, 1)``; everything else is returned as it is."""
     if _is_schedule(key, value):
         return LinearSchedule(_schedule_start(key, value), 0.0, 1.0)
     return value

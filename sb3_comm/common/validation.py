@@ -30,6 +30,7 @@ __all__ = [
     "HYPERPARAMETERS",
     "POLICY_KWARGS",
     "Device",
+    "FractionOrSchedule",
     "LearningRate",
     "Range",
     "check_hyperparameters",
@@ -128,6 +129,31 @@ class LearningRate:
                 f"{hint}"
             )
         Range(0.0, low_open=True)(name, value)
+
+
+@dataclass(frozen=True)
+class FractionOrSchedule:
+    """A number in [0, 1], or a callable schedule of the remaining progress (1 -> 0) whose values
+    at the start (progress 1.0) and at the end (progress 0.0) of training are in [0, 1] (e.g. the
+    Monte-Carlo mixing β, ``mc_mixing``)."""
+
+    def __call__(self, name: str, value: Any) -> None:
+        if callable(value):
+            for progress in (1.0, 0.0):
+                point = value(progress)
+                if not _is_real(point) or not 0.0 <= float(point) <= 1.0:
+                    raise ValueError(
+                        f"{name}: the schedule's value at progress {progress} (1: start of training, "
+                        f"0: end) must be a number in [0, 1], got {point!r}"
+                    )
+            return
+        if isinstance(value, str):
+            raise TypeError(
+                f"{name} must be a number in [0, 1] or a callable schedule, got {value!r} (str); in a "
+                "hyperparameter file or override write a number or 'lin_<number>' (e.g. 'lin_0.5', a "
+                "linear decay to 0), which sb3_comm.config converts"
+            )
+        UNIT(name, value)
 
 
 @dataclass(frozen=True)
@@ -300,7 +326,7 @@ HYPERPARAMETERS: dict[str, Check] = {
     "exploration_final_eps": UNIT,
     "exploration_fraction": UNIT,
     "gaussian_noise_std": Range(0.0),
-    "mc_mixing": UNIT,
+    "mc_mixing": FractionOrSchedule(),
     "tcg_gain": Range(),
     "relabel_messages": Flag(),
     "channel_size": Range(0, whole=True, special=(None,), hint="None: the environment's"),

@@ -124,7 +124,10 @@ class HybridDDPG(TD3):
         (reference code: 0.5, what the packaged configurations use; default: 0, the TD target:
         the Monte-Carlo return of an episode cut by a time limit is summed as if the episode had
         ended, which biases the critic on tasks whose episodes are mostly truncated, see
-        ``benchmarks/results/simple_reference_beta0.5.md``).
+        ``benchmarks/results/simple_reference_beta0.5.md``). A callable is a schedule of the
+        remaining progress (1 -> 0), as the learning rates (``"lin_0.5"`` in a configuration: β decays
+        linearly to 0, so that late in training the returns of old policies in a large replay no
+        longer pull the critic toward their values).
     :param max_grad_norm: gradient clipping of actor and critic (reference: 10; None: no clipping).
     :param action_noise: optional SB3 action noise added on top of the exploration.
     :param replay_buffer_class: a :class:`MonteCarloReplayBuffer` subclass (None: that class).
@@ -163,7 +166,7 @@ class HybridDDPG(TD3):
         exploration_final_eps: float = 0.1,
         exploration_fraction: float = 0.2,
         gaussian_noise_std: float = 0.1,
-        mc_mixing: float = 0.0,
+        mc_mixing: float | Schedule = 0.0,
         max_grad_norm: float | None = 10.0,
         action_noise: ActionNoise | None = None,
         replay_buffer_class: type[MonteCarloReplayBuffer] | None = None,
@@ -272,9 +275,10 @@ class HybridDDPG(TD3):
         self.replay_buffer_kwargs = {
             **self.replay_buffer_kwargs,
             "gamma": self.gamma,
-            "store_mc_returns": self.mc_mixing > 0,
+            "store_mc_returns": self.uses_mc_returns,
         }
         super()._setup_model()
+        self.mc_mixing_schedule = FloatSchedule(self.mc_mixing)
         self.actor_lr_schedule = FloatSchedule(self.actor_learning_rate)
         self.actor.optimizer.param_groups[0]["lr"] = self.actor_lr_schedule(1.0)
         self.exploration_schedule = LinearSchedule(
@@ -292,6 +296,15 @@ class HybridDDPG(TD3):
     def n_updates(self) -> int:
         """Agent (critic) updates so far, over all ``learn`` calls."""
         return self._n_updates
+
+    @property
+    def uses_mc_returns(self) -> bool:
+        """Whether the critic target mixes in Monte-Carlo returns (``mc_mixing`` > 0 at the start or
+        the end of training), so that the replay buffer must store them."""
+        beta = self.mc_mixing
+        if callable(beta):
+            return beta(1.0) > 0 or beta(0.0) > 0
+        return beta > 0
 
     @property
     def progress_remaining(self) -> float:
@@ -376,6 +389,9 @@ class HybridDDPG(TD3):
             group["lr"] = actor_rate
         log = self.train_log
         log.add("train/actor_learning_rate", actor_rate)
+        mc_mixing = self.mc_mixing_schedule(self._current_progress_remaining)
+        if self.uses_mc_returns:
+            log.add("train/mc_mixing", mc_mixing)
         policy = self.policy
         sources, targets = self._soft_update_pairs()
         for _ in range(gradient_steps):
@@ -393,8 +409,8 @@ class HybridDDPG(TD3):
                 next_out = next_out.clamp(-1.0, 1.0)
                 next_q = th.stack(policy.q_values(next_obs, next_out, target=True)).min(dim=0).values
                 target_q = data.rewards + (1.0 - data.dones) * self.gamma * next_q
-                if self.mc_mixing > 0:
-                    mixed = self.mc_mixing * data.mc_returns + (1.0 - self.mc_mixing) * target_q
+                if mc_mixing > 0:
+                    mixed = mc_mixing * data.mc_returns + (1.0 - mc_mixing) * target_q
                     target_q = th.where(data.mc_valid.bool(), mixed, target_q)
 
             # critic loss
@@ -538,7 +554,7 @@ class HybridDDPG(TD3):
             "action shape": tuple(self.action_space.shape),  # type: ignore[arg-type]
             "n_envs": self.n_envs,
             "n_agents": getattr(reference, "n_agents", 1),
-            "Monte-Carlo returns": self.mc_mixing > 0,
+            "Monte-Carlo returns": self.uses_mc_returns,
         }
         found = {
             "observation shape": tuple(buffer.observation_space.shape),
