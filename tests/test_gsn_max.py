@@ -215,8 +215,14 @@ def test_save_load_keeps_the_optimizer_and_the_settings(tmp_path) -> None:
         "both",
         True,
     )
-    saved = model.policy.gsn.optimizer.state_dict()["state"]
-    restored = loaded.policy.gsn.optimizer.state_dict()["state"]
+    assert_loaded_like(model, loaded, "optimizer")
+
+
+def assert_loaded_like(model: CommDDPG, loaded: CommDDPG, optimizer: str) -> None:
+    """``loaded`` has the GSN's parameters and the state of its optimizer ``optimizer`` (an
+    attribute of the GSN), and acts as ``model`` does."""
+    saved = getattr(model.policy.gsn, optimizer).state_dict()["state"]
+    restored = getattr(loaded.policy.gsn, optimizer).state_dict()["state"]
     assert saved and saved.keys() == restored.keys()
     for k in saved:
         th.testing.assert_close(saved[k]["exp_avg"], restored[k]["exp_avg"])

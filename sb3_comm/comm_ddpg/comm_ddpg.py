@@ -70,7 +70,9 @@ class CommDDPG(HybridDDPG):
     :param gsn_learning_rate: GSN learning rate or schedule of the remaining progress, e.g.
         ``LinearSchedule(1e-3, 0, 1)`` (paper: a constant 1e-6); GSN-MAX: its grounding step.
     :param gsn_max_weight: GSN-MAX only: the share ``w`` of the maximising signal (the receiver
-        critic's gradient) in the message extractor's gradient, each signal scaled to unit RMS.
+        critic's gradient) in the message extractor's gradient, each signal scaled to unit RMS (not
+        used by the head design, ``policy_kwargs`` ``gsn_maximising_head=True``, whose head is
+        trained at ``actor_learning_rate``).
     :param gsn_max_signals: GSN-MAX only: ``"both"``, or ``"grounding"`` / ``"maximising"`` alone
         (the method's ablations).
     :param gsn_max_explore_messages: GSN-MAX only: explore messages like actions (with probability
@@ -306,6 +308,12 @@ class CommDDPG(HybridDDPG):
                     f"gsn_max_explore_messages={self.gsn_max_explore_messages!r}: leave it at True"
                 )
         self.gsn = self.policy.gsn
+        if self.gsn is not None and self.gsn.maximising_head is not None and self.gsn_max_weight != 0.5:
+            raise ValueError(
+                f"gsn_max_weight mixes the two signals of GSN-MAX's one-extractor design; with "
+                f"policy_kwargs gsn_maximising_head=True each signal trains its own network, so there is "
+                f"nothing to weigh: leave gsn_max_weight at 0.5 (got {self.gsn_max_weight!r})"
+            )
         self._attach_relabeler()
         self._agent_returns: deque[np.ndarray] = deque(maxlen=self._stats_window_size)
 
@@ -371,6 +379,7 @@ class CommDDPG(HybridDDPG):
                 self.max_grad_norm,
                 max_weight=self.gsn_max_weight,
                 signals=self.gsn_max_signals,
+                head_learning_rate=self.actor_learning_rate,
             )
             callback = CallbackList([self.gsn_callback, callback])
             callback.init_callback(self)
@@ -497,6 +506,8 @@ class CommDDPG(HybridDDPG):
         state_dicts, variables = super()._get_torch_save_params()
         if self.policy.gsn is not None:
             state_dicts = [*state_dicts, "policy.gsn.optimizer"]
+            if self.policy.gsn.head_optimizer is not None:
+                state_dicts = [*state_dicts, "policy.gsn.head_optimizer"]
         return state_dicts, variables
 
     def learn(

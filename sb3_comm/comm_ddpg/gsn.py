@@ -74,6 +74,11 @@ class GroundedSemanticNetwork(nn.Module):
         teammate's observation row), so that a reward the sender's own earlier message caused is
         explained by that input and not asked of the new message (GSN-MAX's option
         ``gsn_reward_hears``).
+    :param maximising_head: GSN-MAX's head design: a second network ``H`` of the sender's
+        observation (the shape of ``M``, its output layer zero, so that training starts as GSN) whose
+        output is added to the grounded message, ``m = M(o) + H(o)``. ``M`` and ``R`` are trained by
+        the regression alone, on ``M(o)``; ``H`` by the receiver critic's gradient alone, with its own
+        optimizer (:attr:`head_optimizer`).
     :param normalize_rewards: regress on teammate rewards standardised by their running mean and
         standard deviation. Soccer rewards are tiny (a variance of about 1e-5 on Blind Soccer), and
         without this the regression barely moves from its initial guess, so the messages carry no
@@ -93,6 +98,7 @@ class GroundedSemanticNetwork(nn.Module):
         message_activation: str = "tanh",
         normalize_rewards: bool = True,
         heard_dim: int = 0,
+        maximising_head: bool = False,
     ) -> None:
         super().__init__()
         self.heard_dim = heard_dim
@@ -107,6 +113,8 @@ class GroundedSemanticNetwork(nn.Module):
         self.register_buffer("reward_count", th.zeros(()))
         self.optimizer: th.optim.Optimizer | None = None
         """Optimizer of ``M`` and ``R`` (set by the policy)."""
+        self.head_optimizer: th.optim.Optimizer | None = None
+        """Optimizer of the maximising head ``H``, if any (set by the policy)."""
         self.message_extractor = AgentMLPs(
             n_agents, obs_dim, channel_size, message_net_arch, activation_fn, share_parameters
         )
@@ -118,16 +126,38 @@ class GroundedSemanticNetwork(nn.Module):
             activation_fn,
             share_parameters,
         )
+        self.maximising_head: AgentMLPs | None = None
+        """GSN-MAX's ``H`` (``maximising_head=True``), or None."""
+        if maximising_head:
+            self.maximising_head = AgentMLPs(
+                n_agents, obs_dim, channel_size, message_net_arch, activation_fn, share_parameters
+            )
+            with th.no_grad():
+                for net in self.maximising_head.nets:
+                    last = [layer for layer in net.modules() if isinstance(layer, nn.Linear)][-1]
+                    last.weight.zero_(), last.bias.zero_()
 
-    def message(self, obs: th.Tensor) -> th.Tensor:
-        """``m = M(o_sender)`` for every agent row: ``(B, n_agents, obs_dim) -> (B, n_agents, n)``."""
+    def grounded_message(self, obs: th.Tensor) -> th.Tensor:
+        """``M(o_sender)``, the hidden layer of the reward prediction (paper eq. 1), for every row."""
         raw = self.message_extractor(obs)
         return th.tanh(raw) if self.message_activation == "tanh" else raw
+
+    def message(self, obs: th.Tensor) -> th.Tensor:
+        """The message sent for every agent row, ``(B, n_agents, obs_dim) -> (B, n_agents, n)``:
+        ``M(o_sender)``, plus ``H(o_sender)`` where there is a maximising head."""
+        grounded = self.grounded_message(obs)
+        if self.maximising_head is None:
+            return grounded
+        return grounded + self.maximising_head(obs)
+
+    def grounding_parameters(self) -> list[nn.Parameter]:
+        """The parameters the regression trains: ``M``'s and ``R``'s (not the head's)."""
+        return [*self.message_extractor.parameters(), *self.reward_model.parameters()]
 
     def _raw_prediction(
         self, obs: th.Tensor, teammate_actions: th.Tensor, messages: th.Tensor | None = None
     ) -> th.Tensor:
-        messages = self.message(obs) if messages is None else messages
+        messages = self.grounded_message(obs) if messages is None else messages
         parts = [messages, teammate_actions[..., : self.teammate_action_dim]]
         if self.heard_dim:  # what each row's teammate heard: the end of the teammate's row
             parts.append(obs.flip(-2)[..., -self.heard_dim :])
@@ -165,8 +195,8 @@ class GroundedSemanticNetwork(nn.Module):
         :param obs: ``(B, 2, obs_dim)`` the senders' observations.
         :param actions: ``(B, 2, action_dim)`` both agents' actions (row ``j`` is agent ``j``'s).
         :param rewards: ``(B, 2)`` both agents' rewards.
-        :param messages: ``(B, 2, n)`` the messages ``M(obs)`` when already computed (GSN-MAX
-            differentiates the loss with respect to them).
+        :param messages: ``(B, 2, n)`` the grounded messages ``M(obs)`` when already computed
+            (GSN-MAX differentiates the loss with respect to them).
         """
         teammate_actions = actions.flip(1)
         target = rewards.flip(1)
@@ -206,6 +236,8 @@ class GSNTrainingCallback(BaseCallback):
         :data:`BESIDE_AGENTS` allows it, a core is spare (:func:`spare_core`) and the update does
         not read the agents' networks). The result is the same either way; only the time differs.
     :param verbose: 0 silent, 1 info.
+    :param head_learning_rate: learning rate (or schedule) of GSN-MAX's maximising head, where the
+        GSN has one (the model passes its actor's: the head is trained like TCG's message outputs).
     """
 
     def __init__(
@@ -217,10 +249,12 @@ class GSNTrainingCallback(BaseCallback):
         signals: str = "both",
         beside_agents: bool | None = None,
         verbose: int = 0,
+        head_learning_rate: float | Schedule = 1e-4,
     ) -> None:
         super().__init__(verbose)
         self.learning_rate = learning_rate
         self.lr_schedule = FloatSchedule(learning_rate)
+        self.head_lr_schedule = FloatSchedule(head_learning_rate)
         self.max_weight = max_weight
         self.batch_size = batch_size
         self.max_grad_norm = max_grad_norm
@@ -314,6 +348,10 @@ class GSNTrainingCallback(BaseCallback):
         for group in gsn.optimizer.param_groups:  # type: ignore[union-attr]
             group["lr"] = lr
         self.model.train_log.add("gsn/learning_rate", lr)  # type: ignore[attr-defined]
+        if gsn.head_optimizer is not None:
+            head_lr = self.head_lr_schedule(self.model.progress_remaining)  # type: ignore[attr-defined]
+            for group in gsn.head_optimizer.param_groups:
+                group["lr"] = head_lr
         return [replay_buffer.sample(self.batch_size) for _ in range(n_updates)]
 
     def _record(self, values: list[tuple[str, Any, int]]) -> None:
@@ -331,10 +369,14 @@ class GSNTrainingCallback(BaseCallback):
         extractor = list(gsn.message_extractor.parameters())
         reward_model = list(gsn.reward_model.parameters())
         values: list[tuple[str, Any, int]] = []
+        head = gsn.maximising_head
         for data in batches:
             if mixing is None:  # GSN: the regression alone (paper eq. 2)
                 loss = gsn.loss(data.observations, data.actions, data.rewards)
                 gradient_step(gsn.optimizer, loss, self.max_grad_norm)  # type: ignore[arg-type]
+            elif head is not None:  # GSN-MAX, head design: each signal trains its own network
+                loss, stats = self._head_design_update(policy, gsn, head, data)
+                values += stats
             else:
                 messages = gsn.message(data.observations)
                 sent = messages.detach().requires_grad_(True)
@@ -360,3 +402,36 @@ class GSNTrainingCallback(BaseCallback):
             self.n_updates += 1
         values.append(("time/gsn_update_ms", 1000.0 * (time.perf_counter() - began), len(batches)))
         return values
+
+    def _head_design_update(
+        self, policy: Any, gsn: GroundedSemanticNetwork, head: nn.Module, data: Any
+    ) -> tuple[th.Tensor, list[tuple[str, Any, int]]]:
+        """GSN-MAX's head design on one batch: the regression step of ``M`` and ``R`` (paper eq. 2,
+        as GSN), then the step of ``H`` along the receiver critic's gradient at ``m = M(o) + H(o)``;
+        either is left out where :attr:`signals` switches it off. Returns the regression loss and
+        the maximising signal's statistics to log."""
+        obs = data.observations
+        if self.signals != "maximising":
+            loss = gsn.loss(obs, data.actions, data.rewards)
+            gradient_step(gsn.optimizer, loss, self.max_grad_norm)  # type: ignore[arg-type]
+        else:  # M and R stay as initialised; the loss is only logged
+            with th.no_grad():
+                loss = gsn.loss(obs, data.actions, data.rewards)
+        values: list[tuple[str, Any, int]] = []
+        if self.signals != "grounding":
+            with th.no_grad():
+                grounded = gsn.grounded_message(obs)
+            offset = head(obs)
+            gradient, stats = policy.comm_method.head_gradient(
+                policy, grounded + offset.detach(), data.next_observations, data.dones
+            )
+            params = list(head.parameters())
+            for param, grad in zip(
+                params, th.autograd.grad(offset, params, grad_outputs=gradient), strict=True
+            ):
+                param.grad = grad
+            if self.max_grad_norm:
+                clip_gradients(params, self.max_grad_norm)
+            gsn.head_optimizer.step()  # type: ignore[union-attr]
+            values += [(key, value, 1) for key, value in stats.items()]
+        return loss, values

@@ -257,6 +257,7 @@ class GSN(CommMethod):
             policy.gsn_message_activation,
             policy.gsn_normalize_rewards,
             heard_dim=layout.channel_size if policy.gsn_reward_hears else 0,
+            maximising_head=getattr(policy, "gsn_maximising_head", False),
         )
 
     def messages(self, policy: TeamPolicy, obs: th.Tensor, out: th.Tensor) -> th.Tensor:
@@ -302,6 +303,18 @@ class GSNMAX(GSN):
     sent; ``gsn_max_explore_messages``), so that the receiver's critic sees the effect of messages
     other than the current ones.
 
+    **Head design** (``policy_kwargs`` ``gsn_maximising_head=True``): the two signals train two
+    networks instead of one mix. The message is ``m = M(o) + H(o)``; ``M`` and ``R`` take GSN's
+    regression step on ``M(o)`` (paper eq. 2, GSN's optimizer and learning rate), and the head
+    ``H`` (output layer zero at the start, so that training starts as GSN) takes its own Adam step
+    at the actor's learning rate, as TCG's message outputs do, along the maximising signal alone::
+
+        θm, θr ← GSN's step on L_g(M(o))
+        θh ← θh − η_actor · Adam(J_Hᵀ · inv(d_m)),        d_m at m = M(o) + H(o)
+
+    A maximising signal that is noise (the receiver's critic before it uses the messages) then
+    moves ``H`` by a random walk of small steps instead of mixing into ``M``'s regression.
+
     Status: this design does not yet solve either task reliably (README, "Beyond the paper").
     """
 
@@ -334,8 +347,7 @@ class GSNMAX(GSN):
         stats = {"gsn/grounding_grad_rms": rms_g}
         if signals == "grounding":  # no pass through the receivers' critics
             return -inverting_gradients(-grounding, sent), stats
-        ascent = TCG.receiver_message_gradients(policy, sent, next_obs, dones)
-        maximising = -ascent / ascent.shape[0]  # the gradient of −E[Q] in the batch mean's units
+        maximising = GSNMAX._maximising(policy, sent, next_obs, dones)
         rms_m = maximising.pow(2).mean().sqrt()
         stats["gsn/maximising_grad_rms"] = rms_m
         if signals == "maximising":
@@ -346,6 +358,30 @@ class GSNMAX(GSN):
             mixed = rms_g * ((1.0 - weight) * unit_g + weight * unit_m)
         # the message is a bounded output: inverting gradients on its ascent direction −d
         return -inverting_gradients(-mixed, sent), stats
+
+    @staticmethod
+    def _maximising(policy: TeamPolicy, sent: th.Tensor, next_obs: th.Tensor, dones: th.Tensor) -> th.Tensor:
+        """``d_m``: the gradient of ``−E[Q_j]`` over the batch at the sent messages."""
+        ascent = TCG.receiver_message_gradients(policy, sent, next_obs, dones)
+        return -ascent / ascent.shape[0]  # the gradient of −E[Q] in the batch mean's units
+
+    @staticmethod
+    def head_gradient(
+        policy: TeamPolicy, sent: th.Tensor, next_obs: th.Tensor, dones: th.Tensor
+    ) -> tuple[th.Tensor, dict[str, th.Tensor]]:
+        """The head design's gradient at the sent messages ``m = M(o) + H(o)``, which trains ``H``:
+        the maximising signal ``d_m`` alone, through the inverting gradients of the message's bounds.
+
+        :param policy: the team's policy (its actor and critic give the signal).
+        :param sent: ``(B, 2, n)`` the messages sent (detached).
+        :param next_obs: ``(B, 2, obs_dim)`` next observations.
+        :param dones: ``(B, 1)`` terminal flags.
+        :return: the gradient ``(B, 2, n)`` and its root-mean-square, for the log.
+        """
+        sent = sent.detach()
+        maximising = GSNMAX._maximising(policy, sent, next_obs, dones)
+        stats = {"gsn/maximising_grad_rms": maximising.pow(2).mean().sqrt()}
+        return -inverting_gradients(-maximising, sent), stats
 
 
 METHODS = ("NONE", "RIAL", "TCG", "GSN", "GSN-MAX")

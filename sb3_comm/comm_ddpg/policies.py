@@ -52,6 +52,10 @@ class CommPolicy(HybridPolicy):
     :param gsn_normalize_rewards: standardise the GSN's regression targets (see the GSN).
     :param gsn_reward_hears: the GSN's reward model also sees the message the teammate heard
         (an option tried for GSN-MAX; off, as in the paper's GSN).
+    :param gsn_maximising_head: GSN-MAX only: send ``m = M(o) + H(o)``, where the head ``H`` alone
+        follows the receiver critic's gradient and ``M`` the regression alone
+        (:class:`~sb3_comm.comm_ddpg.methods.GSNMAX`, "head design"); off: one extractor ``M``
+        trained by the mix of both signals.
     :param optimizer_class: optimizer of actor, critic and GSN.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
@@ -77,6 +81,7 @@ class CommPolicy(HybridPolicy):
         gsn_message_activation: str = "tanh",
         gsn_normalize_rewards: bool = True,
         gsn_reward_hears: bool = False,
+        gsn_maximising_head: bool = False,
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
@@ -94,6 +99,12 @@ class CommPolicy(HybridPolicy):
         self.gsn_message_activation = gsn_message_activation
         self.gsn_normalize_rewards = gsn_normalize_rewards
         self.gsn_reward_hears = bool(gsn_reward_hears)  # None in models saved with the first version
+        self.gsn_maximising_head = bool(gsn_maximising_head)
+        if self.gsn_maximising_head and name != "GSN-MAX":
+            raise ValueError(
+                f"policy_kwargs gsn_maximising_head=True applies to GSN-MAX only (a head trained by the "
+                f"receiver's critic); method {name} would never train it: leave it False"
+            )
         super().__init__(
             observation_space,
             action_space,
@@ -145,7 +156,13 @@ class CommPolicy(HybridPolicy):
         super()._build(lr_schedule)
         self.gsn = self.comm_method.make_networks(self)
         if self.gsn is not None:
-            self.gsn.optimizer = self.make_optimizer(self.gsn, lr_schedule(1))
+            head = self.gsn.maximising_head
+            if head is None:
+                self.gsn.optimizer = self.make_optimizer(self.gsn, lr_schedule(1))
+            else:  # the regression's optimizer must not move the head
+                grounding = nn.ModuleList([self.gsn.message_extractor, self.gsn.reward_model])
+                self.gsn.optimizer = self.make_optimizer(grounding, lr_schedule(1))
+                self.gsn.head_optimizer = self.make_optimizer(head, lr_schedule(1))
 
     # ---------------------------------------------------------------------------- helpers --
     def critic_value(self, critic: nn.Module, x: th.Tensor) -> th.Tensor:
@@ -199,6 +216,7 @@ class CommPolicy(HybridPolicy):
             gsn_message_activation=self.gsn_message_activation,
             gsn_normalize_rewards=self.gsn_normalize_rewards,
             gsn_reward_hears=self.gsn_reward_hears,
+            gsn_maximising_head=self.gsn_maximising_head,
         )
         return data
 

@@ -284,6 +284,7 @@ POLICY_KWARGS: dict[str, Check] = {
     "gsn_reward_net_arch": Widths(),
     "share_parameters": Flag(),
     "gsn_normalize_rewards": Flag(),
+    "gsn_maximising_head": Flag(),
     "score_gradient": OneOf(SCORE_GRADIENTS),
     "critic_layer_norm": Flag(),
 }
