@@ -33,6 +33,9 @@ DESIGNS = {
     "v5": "v4 + inverting gradients on the mixed gradient instead, and linear messages "
     "(gsn_message_activation linear)",
     "v6 (kept)": "v5 without the heard message in the reward model: the packaged zoo_configs/gsn-max.yml",
+    "v7 (head)": "v6 with a maximising head (policy_kwargs gsn_maximising_head): m = M(o) + H(o); M and R "
+    "trained by the regression alone (tanh messages, as GSN), H (output layer zero at the start) by the "
+    "receiver's critic alone, with its own Adam at the actor's learning rate",
 }
 """The designs, in the order they were tried; each variant below is one of them plus its overrides."""
 
@@ -62,6 +65,10 @@ VERSIONS = {
     "gmn_v6": "v6 (kept)",
     "bs_v6": "v6 (kept)",
     "bs_v6_w0.1_400k": "v6 (kept)",
+    "bs_v7_head": "v7 (head)",
+    "gmn_v7_head": "v7 (head)",
+    "bs_v7_head_explore": "v7 (head)",
+    "gmn_v7_head_explore": "v7 (head)",
 }
 """The design each variant ran with (any other: v6, the kept one)."""
 
@@ -104,7 +111,8 @@ def main() -> None:
         "--partial",
         nargs="*",
         default=[],
-        help="NAME=RUN_DIR: a variant stopped early (its evaluations.json; overrides from run_settings)",
+        help="NAME=RUN_DIR: a run of `sb3-comm train` (its result.json where it finished; its "
+        "evaluations.json where it was stopped early; overrides from its config.yml)",
     )
     parser.add_argument("--name", default="gsn_max_variants")
     args = parser.parse_args()
@@ -134,6 +142,10 @@ def main() -> None:
         keys = ("gsn_", "activation", "n_timesteps")
         overrides = [line.strip() for line in config.splitlines() if any(k in line for k in keys)]
         seed = int(match.group(1)) if (match := re.search(r"seed(\d+)", run_dir.name)) else 0
+        finished = run_dir / "result.json"
+        if finished.is_file() and json.loads(finished.read_text()).get("status") == "done":
+            rows.append(_row(label, json.loads(finished.read_text()), oracle(task), overrides))
+            continue
         run = {
             "task": task,
             "seed": seed,
