@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import torch as th
 from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.utils import LinearSchedule
 
 import envs  # noqa: F401  (registers the HFO ids)
 from sb3_comm import METHODS, CommDDPG, HybridDDPG, make_comm_vec_env
@@ -60,6 +61,14 @@ def test_the_meta_default_catches_a_tensor_made_without_the_model_device(default
     [(m, {}) for m in METHODS]
     + [
         ("GSN", {"relabel_messages": True, "mc_mixing": 0.5}),
+        (
+            "GSN-MAX",
+            {
+                "gsn_max_explore_messages": False,
+                "policy_kwargs": {"net_arch": [8], "gsn_maximising_head": True},
+                "mc_mixing": LinearSchedule(0.5, 0.0, 1.0),
+            },
+        ),
         (
             "TCG",
             {
