@@ -6,14 +6,15 @@ command line) and ``benchmarks/results/<name>.md`` (a table for humans, same pro
 
 from __future__ import annotations
 
+import json
 import pathlib
 import shlex
 import sys
 from typing import Any
 
-from sb3_comm.results import machine_info, write_json
+from sb3_comm.results import RunResult, machine_info, write_json
 
-__all__ = ["RESULTS_DIR", "command_line", "machine_info", "write_results"]
+__all__ = ["RESULTS_DIR", "command_line", "finished_run", "machine_info", "write_results"]
 
 RESULTS_DIR = pathlib.Path(__file__).resolve().parent / "results"
 
@@ -21,6 +22,29 @@ RESULTS_DIR = pathlib.Path(__file__).resolve().parent / "results"
 def command_line() -> str:
     """The command line that started this process, as typed (``sys.orig_argv``)."""
     return shlex.join(getattr(sys, "orig_argv", [sys.executable, *sys.argv]))
+
+
+def finished_run(run_dir: pathlib.Path, job: dict[str, Any], settings_name: str) -> RunResult | None:
+    """The result of a run that an earlier call of a resumable benchmark finished, or None.
+
+    :param run_dir: the run's folder.
+    :param job: the settings of the run to make (JSON-able); the folder's ``settings_name`` file
+        holds those the earlier call made it with.
+    :param settings_name: the file name of those settings in the folder.
+    :return: the earlier result where it finished (status ``"done"``), None where there is none or
+        it did not finish (the run is to be made again).
+    :raises ValueError: the folder holds a run made with other settings.
+    """
+    finished, settings = run_dir / "result.json", run_dir / settings_name
+    if not (finished.exists() and settings.exists()):
+        return None
+    if json.loads(settings.read_text()) != json.loads(json.dumps(job)):
+        raise ValueError(f"{run_dir} holds a run with other settings: use another --save-dir")
+    earlier = RunResult.load(finished)
+    if earlier.status != "done":
+        return None
+    print(f"{run_dir}: finished earlier, read from {finished.name}", flush=True)
+    return earlier
 
 
 def write_results(

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import write_results
+from _common import finished_run, write_results
 
 from envs.registry import get_task, task_ids
 from sb3_comm.analysis.references import REFERENCE_SEED, reference_returns
@@ -44,21 +44,16 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
 
     from sb3_comm.callbacks import TimeBudgetCallback
     from sb3_comm.config import RunConfig
-    from sb3_comm.results import RunResult
     from sb3_comm.training import EvalSettings, train_run
 
     th.set_num_threads(1)
     env_id, method, seed = job["env"], job["method"], job["seed"]
     config = RunConfig.load(method, env_id, seed=seed, overrides=job["overrides"])
     run_dir = Path(job["save_dir"]) / f"{env_id}_{method}_seed{seed}"
-    finished, settings = run_dir / "result.json", run_dir / "solve_job.json"
-    if finished.exists() and settings.exists():  # resumable: read a run an earlier call finished
-        earlier = RunResult.load(finished)
-        if json.loads(settings.read_text()) != json.loads(json.dumps(job)):
-            raise ValueError(f"{run_dir} holds a run with other settings: use another --save-dir")
-        if earlier.status == "done":
-            print(f"{run_dir}: finished earlier, read from {finished.name}", flush=True)
-            return earlier.to_json()
+    settings = run_dir / "solve_job.json"
+    earlier = finished_run(run_dir, job, settings.name)  # resumable: read a run an earlier call finished
+    if earlier is not None:
+        return earlier.to_json()
     if run_dir.exists():  # an interrupted or failed run starts again from scratch
         shutil.rmtree(run_dir)
     run_dir.mkdir(parents=True)

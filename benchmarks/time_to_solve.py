@@ -32,28 +32,14 @@ from typing import Any
 import torch as th
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import write_results
+from _common import finished_run, write_results
 
 from envs.registry import task_ids
 from sb3_comm.analysis.references import REFERENCE_SEED, reference_returns
 from sb3_comm.callbacks import TimeBudgetCallback
 from sb3_comm.config import RunConfig
-from sb3_comm.results import RunResult, write_json
+from sb3_comm.results import write_json
 from sb3_comm.training import EvalSettings, train_run
-
-
-def _finished_run(run_dir: Path, job: dict[str, Any]) -> RunResult | None:
-    """The result of a run an earlier call finished with the same settings, or None (to train)."""
-    finished, settings = run_dir / "result.json", run_dir / "tts_job.json"
-    if not (finished.exists() and settings.exists()):
-        return None
-    if json.loads(settings.read_text()) != json.loads(json.dumps(job)):
-        raise ValueError(f"{run_dir} holds a run with other settings: use another --save-dir")
-    earlier = RunResult.load(finished)
-    if earlier.status != "done":
-        return None
-    print(f"{run_dir}: finished earlier, read from {finished.name}", flush=True)
-    return earlier
 
 
 def _median_seconds(seconds: list[float | None]) -> float:
@@ -95,7 +81,7 @@ def main() -> None:
         run_dir = Path(args.save_dir) / f"{args.env}_{args.method}_seed{seed}"
         job = {"env": args.env, "method": args.method, "seed": seed, "eval_freq": args.eval_freq,
                "time_budget": args.time_budget, "target": target, "threads": args.threads}  # fmt: skip
-        result = _finished_run(run_dir, job)
+        result = finished_run(run_dir, job, "tts_job.json")
         if result is None:
             run_dir.mkdir(parents=True, exist_ok=True)
             (run_dir / "tts_job.json").write_text(json.dumps(job))
