@@ -135,7 +135,8 @@ class GroundedSemanticNetwork(nn.Module):
             with th.no_grad():
                 for net in self.maximising_head.nets:
                     last = [layer for layer in net.modules() if isinstance(layer, nn.Linear)][-1]
-                    last.weight.zero_(), last.bias.zero_()
+                    nn.init.zeros_(last.weight)
+                    nn.init.zeros_(last.bias)
 
     def grounded_message(self, obs: th.Tensor) -> th.Tensor:
         """``M(o_sender)``, the hidden layer of the reward prediction (paper eq. 1), for every row."""

@@ -126,8 +126,8 @@ class HybridDDPG(TD3):
         ended, which biases the critic on tasks whose episodes are mostly truncated, see
         ``benchmarks/results/simple_reference_beta0.5.md``). A callable is a schedule of the
         remaining progress (1 -> 0), as the learning rates (``"lin_0.5"`` in a configuration: β decays
-        linearly to 0, so that late in training the returns of old policies in a large replay no
-        longer pull the critic toward their values).
+        linearly to 0; on Blind Soccer this made the final team worse,
+        ``benchmarks/results/stability_pilot_bs_gsn_beta_lin.md``).
     :param max_grad_norm: gradient clipping of actor and critic (reference: 10; None: no clipping).
     :param action_noise: optional SB3 action noise added on top of the exploration.
     :param replay_buffer_class: a :class:`MonteCarloReplayBuffer` subclass (None: that class).
