@@ -1,15 +1,27 @@
 """Single-agent check of the hybrid-action DDPG on the HFO tasks of the ICLR 2016 paper.
 
-Trains :class:`sb3_comm.HybridDDPG` with ``zoo_configs/hybrid_ddpg.yml`` and evaluates the
-deterministic policy on 100 episodes: on move-to-ball the fraction of episodes that reach the ball
-(the player can kick it), on score-on-an-empty-goal the goal rate.
+Trains :class:`sb3_comm.HybridDDPG` with ``zoo_configs/hybrid_ddpg.yml`` on each seed and
+evaluates the deterministic policy on 100 episodes every ``--eval-freq`` steps and at the end: on
+move-to-ball the fraction of episodes that reach the ball (the player can kick it), on
+score-on-an-empty-goal the goal rate. Reports, per seed, the curve, the final rates and the first
+evaluation at which the rate reached ``--bar`` (issue: ≥ 0.9 within 3M steps, on each of 3 seeds).
 
-    python benchmarks/hybrid_ddpg.py --envs HFOMoveToBall-v0 HFOScoreEmptyGoal-v0 --time-budget 1200
+Runs are resumable, so that a long run can be made in pieces that each finish: a piece trains for
+at most ``--time-budget`` seconds, then saves the model, its replay buffer and the curve in
+``--save-dir``; the same command continues every unfinished run from there (the checkpoint's
+settings must match, or it is an error) and reads the finished ones::
+
+    python benchmarks/hybrid_ddpg.py --envs HFOScoreEmptyGoal-v0 --seeds 0 1 2 \\
+        --timesteps 3000000 --time-budget 3000 --save-dir runs/hybrid_ddpg
+
+A piece that ends between two checkpoints keeps its evaluations; the episodes running at the
+cut restart (their transitions keep the TD target alone).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import multiprocessing as mp
 import sys
 import time
@@ -20,10 +32,11 @@ import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
-from solve import TimeBudget
 
 CONFIG = Path(__file__).resolve().parent.parent / "zoo_configs" / "hybrid_ddpg.yml"
 GOAL = 1  # envs.soccer.referee.GOAL
+RATE = {"HFOMoveToBall-v0": "success_rate", "HFOScoreEmptyGoal-v0": "goal_rate"}
+"""The rate that counts per task: reaching the ball, scoring."""
 
 
 def evaluate(model: Any, env_id: str, n_episodes: int, seed: int) -> dict[str, float]:
@@ -54,75 +67,189 @@ def evaluate(model: Any, env_id: str, n_episodes: int, seed: int) -> dict[str, f
     }
 
 
+def job_settings(env_id: str, overrides: dict[str, Any]) -> dict[str, Any]:
+    """The packaged settings of ``env_id`` with ``overrides`` applied (checked keys)."""
+    settings = dict(yaml.safe_load(CONFIG.read_text())[env_id])
+    unknown = sorted(set(overrides) - set(settings) - {"gradient_steps", "train_freq"})
+    allowed = sorted(set(settings) | {"gradient_steps", "train_freq"})
+    if unknown:
+        raise ValueError(f"Unknown --params key(s) {unknown}; accepted: {allowed}")
+    settings.update(overrides)
+    return settings
+
+
 def run_one(job: dict[str, Any]) -> dict[str, Any]:
-    """Train and evaluate HybridDDPG on one env."""
+    """Train (or continue) one seed on one env for one piece; evaluate on the way."""
     import torch as th
+    from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.env_util import make_vec_env
 
     import envs  # noqa: F401  (registers the HFO ids)
     from sb3_comm import HybridDDPG
+    from sb3_comm.callbacks import TimeBudgetCallback
 
     th.set_num_threads(1)
-    settings = dict(yaml.safe_load(CONFIG.read_text())[job["env"]])
+    run_dir = Path(job["run_dir"])
+    run_dir.mkdir(parents=True, exist_ok=True)
+    state_path, model_path = run_dir / "state.json", run_dir / "model.zip"
+    buffer_path = run_dir / "replay.pkl"
+    state: dict[str, Any] = {"job": job["key"], "curve": [], "train_seconds": 0.0, "done": False}
+    if state_path.exists():
+        state = json.loads(state_path.read_text())
+        if state["job"] != json.loads(json.dumps(job["key"])):
+            raise ValueError(f"{run_dir} holds a run with other settings: use another --save-dir")
+    if state["done"]:
+        print(f"{run_dir}: finished earlier", flush=True)
+        return state
+
+    settings = dict(job["key"]["settings"])
     n_envs = int(settings.pop("n_envs"))
-    timesteps = int(job["timesteps"] or float(settings.pop("n_timesteps")))
-    settings.pop("n_timesteps", None)
+    settings.pop("n_timesteps")
     policy = settings.pop("policy")
-    model = HybridDDPG(
-        policy,
-        make_vec_env(job["env"], n_envs=n_envs, seed=job["seed"]),
-        seed=job["seed"],
-        device="cpu",
-        **settings,
+    env = make_vec_env(job["env"], n_envs=n_envs, seed=job["seed"] + 1000 * len(state["curve"]))
+    if model_path.exists():
+        model = HybridDDPG.load(model_path, env=env, device="cpu")
+        model.load_replay_buffer(buffer_path)
+    else:
+        model = HybridDDPG(policy, env, seed=job["seed"], device="cpu", **settings)
+    timesteps, every, episodes = job["timesteps"], job["eval_freq"], job["eval_episodes"]
+
+    class Evaluate(BaseCallback):
+        """Evaluate every ``every`` env steps on the same episodes; keep the curve in ``state``."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.next = (model.num_timesteps // every + 1) * every
+            self.began = time.perf_counter()
+            self.evaluating = 0.0  # seconds of this piece spent in evaluations
+
+        def train_seconds(self) -> float:
+            """Training time of the run so far, evaluations left out."""
+            return state["train_seconds"] + time.perf_counter() - self.began - self.evaluating
+
+        def point(self) -> None:
+            seconds, began = self.train_seconds(), time.perf_counter()
+            result = evaluate(model, job["env"], episodes, seed=50_000)
+            self.evaluating += time.perf_counter() - began
+            state["curve"].append({"timesteps": model.num_timesteps, "train_seconds": seconds, **result})
+            print(f"{job['env']} seed {job['seed']}: {state['curve'][-1]}", flush=True)
+
+        def _on_step(self) -> bool:
+            if self.num_timesteps >= self.next:
+                self.next += every
+                self.point()
+            return True
+
+    evaluation = Evaluate()
+    model.learn(
+        timesteps - model.num_timesteps,
+        callback=[evaluation, TimeBudgetCallback(job["time_budget"])],
+        reset_num_timesteps=not model_path.exists(),
     )
-    began = time.perf_counter()
-    model.learn(timesteps, callback=TimeBudget.make(job["time_budget"]))
-    seconds = time.perf_counter() - began
-    return {
-        "env": job["env"],
-        "seed": job["seed"],
-        "timesteps": model.num_timesteps,
-        "train_seconds": seconds,
-        "evaluation": evaluate(model, job["env"], 100, seed=50_000),
-        "settings": settings,
-    }
+    state["train_seconds"] = evaluation.train_seconds()
+    state["timesteps"] = model.num_timesteps
+    if model.num_timesteps >= timesteps:
+        if not state["curve"] or state["curve"][-1]["timesteps"] != model.num_timesteps:
+            evaluation.point()
+        state["done"] = True
+    model.save(model_path)
+    model.save_replay_buffer(buffer_path)
+    state_path.write_text(json.dumps(state, indent=1))
+    return state
+
+
+def first_at(curve: list[dict[str, Any]], rate: str, bar: float) -> dict[str, Any] | None:
+    """The first evaluation whose ``rate`` is at least ``bar``."""
+    return next((point for point in curve if point[rate] >= bar), None)
+
+
+def parse_params(pairs: list[str]) -> dict[str, Any]:
+    """``key=value`` overrides, values read as YAML (``gradient_steps=2``, ``tau=0.001``)."""
+    overrides = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        if not sep or not key:
+            raise ValueError(f"--params takes key=value pairs, got {pair!r}")
+        overrides[key] = yaml.safe_load(value)
+    return overrides
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--envs", nargs="+", default=["HFOMoveToBall-v0", "HFOScoreEmptyGoal-v0"])
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--timesteps", type=int, default=None)
-    parser.add_argument("--time-budget", type=float, default=1200.0)
+    parser.add_argument("--envs", nargs="+", default=["HFOScoreEmptyGoal-v0"], choices=sorted(RATE))
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser.add_argument("--timesteps", type=int, default=None, help="default: the config's n_timesteps")
+    parser.add_argument("--params", nargs="*", default=[], help="config overrides, key=value")
+    parser.add_argument("--eval-freq", type=int, default=100_000)
+    parser.add_argument("--eval-episodes", type=int, default=100)
+    parser.add_argument("--bar", type=float, default=0.9, help="rate to reach (goal rate on the empty goal)")
+    parser.add_argument("--time-budget", type=float, default=3000.0, help="seconds of training per piece")
+    parser.add_argument("--save-dir", type=Path, default=Path("runs/hybrid_ddpg"))
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--name", default="hybrid_ddpg")
     args = parser.parse_args()
-    jobs = [
-        {"env": env, "seed": args.seed, "timesteps": args.timesteps, "time_budget": args.time_budget}
-        for env in args.envs
-    ]
+    overrides = parse_params(args.params)
+    jobs = []
+    for env_id in args.envs:
+        settings = job_settings(env_id, overrides)
+        timesteps = int(args.timesteps or float(settings["n_timesteps"]))
+        for seed in args.seeds:
+            key = {
+                "env": env_id,
+                "seed": seed,
+                "timesteps": timesteps,
+                "settings": settings,
+                "eval_freq": args.eval_freq,
+                "eval_episodes": args.eval_episodes,
+            }
+            jobs.append(
+                {
+                    **key,
+                    "key": key,
+                    "time_budget": args.time_budget,
+                    "run_dir": str(args.save_dir / env_id / f"seed_{seed}"),
+                }
+            )
     with mp.get_context("spawn").Pool(min(args.workers, len(jobs))) as pool:
         runs = pool.map(run_one, jobs)
+
     rows = [
-        "| task | env steps | train time (s) | mean return | reached ball / success | goal rate |",
-        "|---|---:|---:|---:|---:|---:|",
+        "| task | seed | env steps | train time (s) | final return | final rate | best rate | "
+        f"first ≥ {args.bar} (steps, s) |",
+        "|---|---:|---:|---:|---:|---:|---:|---|",
     ]
-    for run in runs:
-        ev = run["evaluation"]
+    for job, run in zip(jobs, runs, strict=True):
+        rate, curve = RATE[job["env"]], run["curve"]
+        final = curve[-1] if curve else None
+        hit = first_at(curve, rate, args.bar)
+        run["first_at_bar"] = hit
         rows.append(
-            f"| {run['env']} | {run['timesteps']:,} | {run['train_seconds']:.0f} | {ev['mean_return']:.3f} | "
-            f"{ev['success_rate']:.2f} | {ev['goal_rate']:.2f} |"
+            f"| {job['env']} | {job['seed']} | {run.get('timesteps', 0):,} | {run['train_seconds']:.0f} | "
+            + (
+                f"{final['mean_return']:.3f} | {final[rate]:.2f} | {max(p[rate] for p in curve):.2f} | "
+                if final
+                else "– | – | – | "
+            )
+            + (f"{hit['timesteps']:,}, {hit['train_seconds']:.0f} |" if hit else "never |")
+            + ("" if run["done"] else " (unfinished)")
         )
+    rows += ["", f"Curves (rate at each evaluation, every {args.eval_freq:,} env steps):", ""]
+    for job, run in zip(jobs, runs, strict=True):
+        rate = RATE[job["env"]]
+        rows.append(f"- {job['env']} seed {job['seed']}: " + " ".join(f"{p[rate]:.2f}" for p in run["curve"]))
     notes = (
-        "\n\n100 deterministic evaluation episodes per task after training (seed "
-        f"{args.seed}, time budget {args.time_budget:.0f} s per run, one torch thread per run). "
-        "'Success' is an episode that terminated: the player reached the ball (move to ball) or the "
-        "episode ended on a goal (empty goal). Oracle references: `benchmarks/results/oracles.md`."
+        f"\n\n{args.eval_episodes} deterministic evaluation episodes (the same games each time) every "
+        f"{args.eval_freq:,} env steps and at the end; one torch thread per run, {args.workers} runs in "
+        f"parallel. Settings: `zoo_configs/hybrid_ddpg.yml`"
+        + (f" with {overrides}" if overrides else "")
+        + ". The rate is the goal rate on the empty goal, the fraction of episodes that reach the "
+        "ball on move-to-ball. Oracle references: `benchmarks/results/oracles.md`."
     )
     write_results(
-        "hybrid_ddpg",
-        {"args": vars(args), "runs": runs},
+        args.name,
+        {"args": {**vars(args), "save_dir": str(args.save_dir)}, "runs": runs},
         "\n".join(rows) + notes,
         title="Single-agent hybrid DDPG on HFO tasks",
     )
