@@ -17,7 +17,8 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecEnv
 
 from envs.registry import TASKS, task_ids
-from sb3_comm.wrappers.batched_vec_env import BatchedTwoAgentVecEnv
+from envs.tasks.single_agent import SINGLE_AGENT_TASKS
+from sb3_comm.wrappers.batched_vec_env import BatchedSingleAgentVecEnv, BatchedTwoAgentVecEnv
 
 __all__ = ["FOREIGN_IDS", "TASK_IDS", "make_comm_vec_env", "register_envs"]
 
@@ -52,11 +53,12 @@ def make_comm_vec_env(
     env_kwargs: dict[str, Any] | None = None,
     batched: bool = True,
 ) -> VecEnv:
-    """``n_envs`` games of a communication task as one SB3 VecEnv.
+    """``n_envs`` games of a communication task (or of a single-agent HFO task) as one SB3 VecEnv.
 
     :param env_id: a task id (``"BlindSoccer-v0"``, ``"GuessMyNumber-v0"``: see
-        :data:`envs.registry.TASKS`) or any other Gymnasium id (then SB3's ``make_vec_env`` is
-        used).
+        :data:`envs.registry.TASKS`), a single-agent HFO id (``"HFOMoveToBall-v0"``,
+        ``"HFOScoreEmptyGoal-v0"``, :class:`~sb3_comm.wrappers.BatchedSingleAgentVecEnv`) or any
+        other Gymnasium id (then SB3's ``make_vec_env`` is used).
     :param n_envs: number of parallel games.
     :param seed: seed of the first reset.
     :param env_kwargs: task options (``max_steps``, ``channel_size``, ...).
@@ -69,4 +71,9 @@ def make_comm_vec_env(
         vec_env = BatchedTwoAgentVecEnv(TASKS[env_id].batched_env(n_games=n_envs, **env_kwargs))
         vec_env.seed(seed)
         return vec_env
+    if env_id in SINGLE_AGENT_TASKS and batched:
+        env_kwargs.pop("render_mode", None)
+        single = BatchedSingleAgentVecEnv(SINGLE_AGENT_TASKS[env_id](n_games=n_envs, **env_kwargs))
+        single.seed(seed)
+        return single
     return make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=env_kwargs)

@@ -7,6 +7,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import envs
+from envs.oracles import empty_goal_oracle, move_to_ball_oracle
 from envs.soccer import physics, referee
 from envs.soccer.state import SoccerState
 from envs.tasks.hfo_actions import HYBRID_LAYOUT
@@ -136,3 +137,69 @@ def test_bad_actions_raise(env_class):
     bad[0] = np.nan
     with pytest.raises(ValueError, match="player"):
         env.step(bad)
+
+
+def _mixed_action(shell, rng, oracle, random_share):
+    """The task's oracle action or, with probability ``random_share``, a random one."""
+    if rng.random() < random_share:
+        return rng.uniform(shell.action_space.low, shell.action_space.high).astype(np.float32)
+    return oracle(shell.task)[0, 0].astype(np.float32)
+
+
+@pytest.mark.parametrize("env_id", ["HFOMoveToBall-v0", "HFOScoreEmptyGoal-v0"])
+def test_batched_vec_env_plays_the_gymnasium_games(env_id):
+    """One game of the batched VecEnv is the Gymnasium shell's game, step for step and across
+    resets: observations, rewards, ends, outcomes, and SB3's truncation flags."""
+    from sb3_comm import make_comm_vec_env
+    from sb3_comm.wrappers import BatchedSingleAgentVecEnv
+
+    vec = make_comm_vec_env(env_id, n_envs=1, seed=3)
+    assert isinstance(vec, BatchedSingleAgentVecEnv)
+    shell = gymnasium.make(env_id).unwrapped
+    assert vec.observation_space == shell.observation_space and vec.action_space == shell.action_space
+    assert vec.get_attr("hybrid_layout")[0] == shell.hybrid_layout
+
+    obs, (expected, _) = vec.reset(), shell.reset(seed=3)
+    np.testing.assert_array_equal(obs[0], expected)
+    oracle = move_to_ball_oracle if env_id == "HFOMoveToBall-v0" else empty_goal_oracle
+    rng, ends = np.random.default_rng(0), []
+    for _ in range(600):
+        # oracle-led and random episodes in turn: they reach the ball, score and run out of time
+        action = _mixed_action(shell, rng, oracle, 0.3 if len(ends) % 2 == 0 else 1.0)
+        obs, reward, done, info = vec.step(action[None])
+        expected, expected_reward, terminated, truncated, shell_info = shell.step(action)
+        assert reward[0] == np.float32(expected_reward) and done[0] == (terminated or truncated)
+        assert info[0]["outcome"] == shell_info["outcome"]
+        if done[0]:
+            ends.append((shell_info["outcome"], truncated))
+            np.testing.assert_array_equal(info[0]["terminal_observation"], expected)
+            assert info[0]["TimeLimit.truncated"] == (truncated and not terminated)
+            expected, _ = shell.reset()
+        np.testing.assert_array_equal(obs[0], expected)
+    assert len(set(ends)) >= 2  # the comparison crossed episodes that ended in different ways
+
+
+def test_batched_vec_env_checks_its_input():
+    from sb3_comm import make_comm_vec_env
+    from sb3_comm.wrappers import BatchedSingleAgentVecEnv
+
+    vec = make_comm_vec_env("HFOScoreEmptyGoal-v0", n_envs=4, seed=0)
+    vec.reset()
+    with pytest.raises(ValueError, match=r"shape \(4, 7\); expected \(4, 8\)"):
+        vec.step(np.zeros((4, 7), np.float32))
+    bad = np.zeros((4, 8), np.float32)
+    bad[2, 5] = np.nan
+    with pytest.raises(ValueError, match=r"\['player'\] contains NaN"):
+        vec.step(bad)
+    with pytest.raises(ValueError, match="one-agent task with autoreset=True"):
+        BatchedSingleAgentVecEnv(ScoreEmptyGoalTask(n_games=2, autoreset=False))
+
+
+def test_hybrid_ddpg_trains_on_the_batched_vec_env():
+    from sb3_comm import HybridDDPG, make_comm_vec_env
+
+    vec = make_comm_vec_env("HFOScoreEmptyGoal-v0", n_envs=4, seed=0)
+    model = HybridDDPG("MlpPolicy", vec, learning_starts=16, batch_size=8, policy_kwargs={"net_arch": [8]})
+    model.learn(200)
+    assert model.num_timesteps == 200 and model.replay_buffer.size() == 50
+    assert model.policy.hybrid_layout is not None

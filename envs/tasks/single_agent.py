@@ -40,6 +40,7 @@ __all__ = [
     "GOAL_CENTRE",
     "GOAL_DISTANCE_WEIGHT",
     "KICKABLE_BONUS",
+    "SINGLE_AGENT_TASKS",
     "MoveToBallEnv",
     "MoveToBallTask",
     "ScoreEmptyGoalEnv",
@@ -199,3 +200,11 @@ class ScoreEmptyGoalEnv(_SingleAgentEnv):
     """
 
     task_class = ScoreEmptyGoalTask
+
+
+SINGLE_AGENT_TASKS: dict[str, type[BatchedTask]] = {
+    "HFOMoveToBall-v0": MoveToBallTask,
+    "HFOScoreEmptyGoal-v0": ScoreEmptyGoalTask,
+}
+"""The batched core of each single-agent Gymnasium id (``sb3_comm.make_comm_vec_env`` steps all
+games of one in a single call)."""
