@@ -40,29 +40,31 @@ RATE = {"HFOMoveToBall-v0": "success_rate", "HFOScoreEmptyGoal-v0": "goal_rate"}
 
 
 def evaluate(model: Any, env_id: str, n_episodes: int, seed: int) -> dict[str, float]:
-    """Deterministic episodes: mean return, fraction terminated (ball reached / episode won), goals."""
-    import gymnasium as gym
+    """One deterministic episode in each of ``n_episodes`` games played at once (the same games for
+    the same ``seed``): mean return, fraction terminated (ball reached / episode won), goals."""
+    import numpy as np
 
-    env = gym.make(env_id)
-    returns, reached, goals, lengths = [], 0, 0, []
-    for episode in range(n_episodes):
-        obs, _ = env.reset(seed=seed + episode)
-        total, done, steps, info, terminated = 0.0, False, 0, {}, False
-        while not done:
-            action, _ = model.predict(obs, deterministic=True)
-            obs, reward, terminated, truncated, info = env.step(action)
-            total += float(reward)
-            steps += 1
-            done = terminated or truncated
-        returns.append(total)
-        lengths.append(steps)
-        reached += int(terminated)
-        goals += int(info.get("outcome") == GOAL)
+    from envs.tasks.single_agent import SINGLE_AGENT_TASKS
+
+    task = SINGLE_AGENT_TASKS[env_id](n_games=n_episodes, seed=seed, autoreset=False)
+    obs = task.reset(seed=seed)
+    running = np.ones(n_episodes, dtype=bool)
+    returns, lengths = np.zeros(n_episodes), np.zeros(n_episodes, dtype=np.int64)
+    terminated, outcome = np.zeros(n_episodes, dtype=bool), np.zeros(n_episodes, dtype=np.int64)
+    while running.any():
+        actions, _ = model.predict(obs[:, 0], deterministic=True)
+        obs, rewards, ended_in_goal_or_out, truncated, info = task.step(actions[:, None])
+        returns[running] += rewards[running, 0]
+        lengths[running] += 1
+        ended = running & (ended_in_goal_or_out | truncated)
+        terminated[ended] = ended_in_goal_or_out[ended]
+        outcome[ended] = info["outcome"][ended]
+        running &= ~ended  # a game that ended plays on unseen until all have ended
     return {
-        "mean_return": sum(returns) / n_episodes,
-        "success_rate": reached / n_episodes,
-        "goal_rate": goals / n_episodes,
-        "mean_length": sum(lengths) / n_episodes,
+        "mean_return": float(returns.mean()),
+        "success_rate": float(terminated.mean()),
+        "goal_rate": float((outcome == GOAL).mean()),
+        "mean_length": float(lengths.mean()),
         "n_episodes": n_episodes,
     }
 
@@ -82,10 +84,8 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
     """Train (or continue) one seed on one env for one piece; evaluate on the way."""
     import torch as th
     from stable_baselines3.common.callbacks import BaseCallback
-    from stable_baselines3.common.env_util import make_vec_env
 
-    import envs  # noqa: F401  (registers the HFO ids)
-    from sb3_comm import HybridDDPG
+    from sb3_comm import HybridDDPG, make_comm_vec_env
     from sb3_comm.callbacks import TimeBudgetCallback
 
     th.set_num_threads(1)
@@ -106,7 +106,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
     n_envs = int(settings.pop("n_envs"))
     settings.pop("n_timesteps")
     policy = settings.pop("policy")
-    env = make_vec_env(job["env"], n_envs=n_envs, seed=job["seed"] + 1000 * len(state["curve"]))
+    env = make_comm_vec_env(job["env"], n_envs=n_envs, seed=job["seed"] + 1000 * len(state["curve"]))
     if model_path.exists():
         model = HybridDDPG.load(model_path, env=env, device="cpu")
         model.load_replay_buffer(buffer_path)
@@ -240,12 +240,15 @@ def main() -> None:
         rate = RATE[job["env"]]
         rows.append(f"- {job['env']} seed {job['seed']}: " + " ".join(f"{p[rate]:.2f}" for p in run["curve"]))
     notes = (
-        f"\n\n{args.eval_episodes} deterministic evaluation episodes (the same games each time) every "
+        f"\n\n{args.eval_episodes} deterministic evaluation episodes (the same games each time, played "
+        f"at once) every "
         f"{args.eval_freq:,} env steps and at the end; one torch thread per run, {args.workers} runs in "
         f"parallel. Settings: `zoo_configs/hybrid_ddpg.yml`"
         + (f" with {overrides}" if overrides else "")
         + ". The rate is the goal rate on the empty goal, the fraction of episodes that reach the "
-        "ball on move-to-ball. Oracle references: `benchmarks/results/oracles.md`."
+        "ball on move-to-ball. Training steps all games of a run in one call "
+        "(`make_comm_vec_env`, `BatchedSingleAgentVecEnv`). Oracle references: "
+        "`benchmarks/results/oracles.md`."
     )
     write_results(
         args.name,
