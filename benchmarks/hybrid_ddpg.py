@@ -87,6 +87,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
 
     from sb3_comm import HybridDDPG, make_comm_vec_env
     from sb3_comm.callbacks import TimeBudgetCallback
+    from sb3_comm.common.hyperparams import algorithm_kwargs
 
     th.set_num_threads(1)
     run_dir = Path(job["run_dir"])
@@ -111,7 +112,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
         model = HybridDDPG.load(model_path, env=env, device="cpu")
         model.load_replay_buffer(buffer_path)
     else:
-        model = HybridDDPG(policy, env, seed=job["seed"], device="cpu", **settings)
+        model = HybridDDPG(policy, env, seed=job["seed"], device="cpu", **algorithm_kwargs(settings))
     timesteps, every, episodes = job["timesteps"], job["eval_freq"], job["eval_episodes"]
 
     class Evaluate(BaseCallback):
@@ -164,7 +165,8 @@ def first_at(curve: list[dict[str, Any]], rate: str, bar: float) -> dict[str, An
 
 
 def parse_params(pairs: list[str]) -> dict[str, Any]:
-    """``key=value`` overrides, values read as YAML (``gradient_steps=2``, ``tau=0.001``)."""
+    """``key=value`` overrides, values read as YAML (``gradient_steps=2``, ``tau=0.001``; learning
+    rates may be linear schedules, ``actor_learning_rate=lin_1e-4``)."""
     overrides = {}
     for pair in pairs:
         key, sep, value = pair.partition("=")
