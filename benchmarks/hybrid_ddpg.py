@@ -80,6 +80,14 @@ def job_settings(env_id: str, overrides: dict[str, Any]) -> dict[str, Any]:
     return settings
 
 
+def same_run(key: dict[str, Any]) -> dict[str, Any]:
+    """What must match for a saved run to be continued: the run's key (JSON form), without the
+    config's ``n_timesteps``, which only gives ``timesteps`` a default (the key has ``timesteps``)."""
+    comparable = json.loads(json.dumps(key))
+    comparable["settings"].pop("n_timesteps", None)
+    return comparable
+
+
 def run_one(job: dict[str, Any]) -> dict[str, Any]:
     """Train (or continue) one seed on one env for one piece; evaluate on the way."""
     import torch as th
@@ -97,7 +105,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
     state: dict[str, Any] = {"job": job["key"], "curve": [], "train_seconds": 0.0, "done": False}
     if state_path.exists():
         state = json.loads(state_path.read_text())
-        if state["job"] != json.loads(json.dumps(job["key"])):
+        if same_run(state["job"]) != same_run(job["key"]):
             raise ValueError(f"{run_dir} holds a run with other settings: use another --save-dir")
     if state["done"]:
         print(f"{run_dir}: finished earlier", flush=True)
@@ -249,8 +257,10 @@ def main() -> None:
         + (f" with {overrides}" if overrides else "")
         + ". The rate is the goal rate on the empty goal, the fraction of episodes that reach the "
         "ball on move-to-ball. Training steps all games of a run in one call "
-        "(`make_comm_vec_env`, `BatchedSingleAgentVecEnv`). Oracle references: "
-        "`benchmarks/results/oracles.md`."
+        "(`make_comm_vec_env`, `BatchedSingleAgentVecEnv`). Runs are resumable: a run that an earlier "
+        "call of the command finished is read from `--save-dir`, not trained again, so the commit above "
+        "is the one that wrote this file, and a run may have been trained at an earlier one. Oracle "
+        "references: `benchmarks/results/oracles.md`."
     )
     write_results(
         args.name,

@@ -63,3 +63,6 @@ def test_hybrid_ddpg_benchmark_resumes_a_cut_run_to_its_end(tmp_path):
     other = {**key, "seed": 1}
     with pytest.raises(ValueError, match="other settings"):
         module.run_one({**other, "key": other, "run_dir": job["run_dir"], "time_budget": 600.0})
+    # the config's n_timesteps only defaults the run's length: a changed one is the same run
+    same = {**key, "settings": {**settings, "n_timesteps": 7}}
+    assert module.run_one({**same, "key": same, "run_dir": job["run_dir"], "time_budget": 600.0}) == finished
