@@ -14,8 +14,9 @@ settings must match, or it is an error) and reads the finished ones::
     python benchmarks/hybrid_ddpg.py --envs HFOScoreEmptyGoal-v0 --seeds 0 1 2 \\
         --timesteps 3000000 --time-budget 3000 --save-dir runs/hybrid_ddpg
 
-A piece that ends between two checkpoints keeps its evaluations; the episodes running at the
-cut restart (their transitions keep the TD target alone).
+A piece keeps the evaluations it made; the episodes running at its cut restart in the next piece
+(their transitions keep the TD target alone). Results go to ``benchmarks/results/<--name>.{json,md}``
+(default ``hybrid_ddpg_<tasks>``, e.g. ``hybrid_ddpg_scoreemptygoal``).
 """
 
 from __future__ import annotations
@@ -198,9 +199,13 @@ def main() -> None:
     parser.add_argument("--time-budget", type=float, default=3000.0, help="seconds of training per piece")
     parser.add_argument("--save-dir", type=Path, default=Path("runs/hybrid_ddpg"))
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--name", default="hybrid_ddpg")
+    parser.add_argument("--name", default=None, help="result file stem (default: hybrid_ddpg_<tasks>)")
     args = parser.parse_args()
     overrides = parse_params(args.params)
+    if args.name is None:
+        args.name = "hybrid_ddpg_" + "_".join(
+            e.removeprefix("HFO").removesuffix("-v0").lower() for e in args.envs
+        )
     jobs = []
     for env_id in args.envs:
         settings = job_settings(env_id, overrides)
