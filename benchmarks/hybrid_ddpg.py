@@ -34,6 +34,8 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
 
+from sb3_comm.cli import parse_overrides
+
 CONFIG = Path(__file__).resolve().parent.parent / "zoo_configs" / "hybrid_ddpg.yml"
 GOAL = 1  # envs.soccer.referee.GOAL
 RATE = {"HFOMoveToBall-v0": "success_rate", "HFOScoreEmptyGoal-v0": "goal_rate"}
@@ -48,7 +50,7 @@ def evaluate(model: Any, env_id: str, n_episodes: int, seed: int) -> dict[str, f
     from envs.tasks.single_agent import SINGLE_AGENT_TASKS
 
     task = SINGLE_AGENT_TASKS[env_id](n_games=n_episodes, seed=seed, autoreset=False)
-    obs = task.reset(seed=seed)
+    obs = task.obs  # the constructor reset every game from the seed
     running = np.ones(n_episodes, dtype=bool)
     returns, lengths = np.zeros(n_episodes), np.zeros(n_episodes, dtype=np.int64)
     terminated, outcome = np.zeros(n_episodes, dtype=bool), np.zeros(n_episodes, dtype=np.int64)
@@ -73,10 +75,10 @@ def evaluate(model: Any, env_id: str, n_episodes: int, seed: int) -> dict[str, f
 def job_settings(env_id: str, overrides: dict[str, Any]) -> dict[str, Any]:
     """The packaged settings of ``env_id`` with ``overrides`` applied (checked keys)."""
     settings = dict(yaml.safe_load(CONFIG.read_text())[env_id])
-    unknown = sorted(set(overrides) - set(settings) - {"gradient_steps", "train_freq"})
-    allowed = sorted(set(settings) | {"gradient_steps", "train_freq"})
+    accepted = set(settings) | {"gradient_steps", "train_freq"}
+    unknown = sorted(set(overrides) - accepted)
     if unknown:
-        raise ValueError(f"Unknown --params key(s) {unknown}; accepted: {allowed}")
+        raise ValueError(f"Unknown --params key(s) {unknown}; accepted: {sorted(accepted)}")
     settings.update(overrides)
     return settings
 
@@ -90,7 +92,11 @@ def same_run(key: dict[str, Any]) -> dict[str, Any]:
 
 
 def run_one(job: dict[str, Any]) -> dict[str, Any]:
-    """Train (or continue) one seed on one env for one piece; evaluate on the way."""
+    """Train (or continue) one seed on one env for one piece; evaluate on the way.
+
+    :param job: ``key`` (the run: env, seed, timesteps, settings, evaluation), ``time_budget`` (the
+        piece's seconds) and ``run_dir``.
+    """
     import torch as th
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -103,26 +109,27 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
     run_dir.mkdir(parents=True, exist_ok=True)
     state_path, model_path = run_dir / "state.json", run_dir / "model.zip"
     buffer_path = run_dir / "replay.pkl"
-    state: dict[str, Any] = {"job": job["key"], "curve": [], "train_seconds": 0.0, "done": False}
+    key = job["key"]
+    state: dict[str, Any] = {"job": key, "curve": [], "train_seconds": 0.0, "done": False}
     if state_path.exists():
         state = json.loads(state_path.read_text())
-        if same_run(state["job"]) != same_run(job["key"]):
+        if same_run(state["job"]) != same_run(key):
             raise ValueError(f"{run_dir} holds a run with other settings: use another --save-dir")
     if state["done"]:
         print(f"{run_dir}: finished earlier", flush=True)
         return state
 
-    settings = dict(job["key"]["settings"])
+    settings = dict(key["settings"])
     n_envs = int(settings.pop("n_envs"))
     settings.pop("n_timesteps")
     policy = settings.pop("policy")
-    env = make_comm_vec_env(job["env"], n_envs=n_envs, seed=job["seed"] + 1000 * len(state["curve"]))
+    env = make_comm_vec_env(key["env"], n_envs=n_envs, seed=key["seed"] + 1000 * len(state["curve"]))
     if model_path.exists():
         model = HybridDDPG.load(model_path, env=env, device="cpu")
         model.load_replay_buffer(buffer_path)
     else:
-        model = HybridDDPG(policy, env, seed=job["seed"], device="cpu", **algorithm_kwargs(settings))
-    timesteps, every, episodes = job["timesteps"], job["eval_freq"], job["eval_episodes"]
+        model = HybridDDPG(policy, env, seed=key["seed"], device="cpu", **algorithm_kwargs(settings))
+    timesteps, every, episodes = key["timesteps"], key["eval_freq"], key["eval_episodes"]
 
     class Evaluate(BaseCallback):
         """Evaluate every ``every`` env steps on the same episodes; keep the curve in ``state``."""
@@ -139,10 +146,10 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
 
         def point(self) -> None:
             seconds, began = self.train_seconds(), time.perf_counter()
-            result = evaluate(model, job["env"], episodes, seed=50_000)
+            result = evaluate(model, key["env"], episodes, seed=50_000)
             self.evaluating += time.perf_counter() - began
             state["curve"].append({"timesteps": model.num_timesteps, "train_seconds": seconds, **result})
-            print(f"{job['env']} seed {job['seed']}: {state['curve'][-1]}", flush=True)
+            print(f"{key['env']} seed {key['seed']}: {state['curve'][-1]}", flush=True)
 
         def _on_step(self) -> bool:
             if self.num_timesteps >= self.next:
@@ -173,18 +180,6 @@ def first_at(curve: list[dict[str, Any]], rate: str, bar: float) -> dict[str, An
     return next((point for point in curve if point[rate] >= bar), None)
 
 
-def parse_params(pairs: list[str]) -> dict[str, Any]:
-    """``key=value`` overrides, values read as YAML (``gradient_steps=2``, ``tau=0.001``; learning
-    rates may be linear schedules, ``actor_learning_rate=lin_1e-4``)."""
-    overrides = {}
-    for pair in pairs:
-        key, sep, value = pair.partition("=")
-        if not sep or not key:
-            raise ValueError(f"--params takes key=value pairs, got {pair!r}")
-        overrides[key] = yaml.safe_load(value)
-    return overrides
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -201,7 +196,7 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--name", default=None, help="result file stem (default: hybrid_ddpg_<tasks>)")
     args = parser.parse_args()
-    overrides = parse_params(args.params)
+    overrides = parse_overrides(args.params)
     if args.name is None:
         args.name = "hybrid_ddpg_" + "_".join(
             e.removeprefix("HFO").removesuffix("-v0").lower() for e in args.envs
@@ -219,14 +214,8 @@ def main() -> None:
                 "eval_freq": args.eval_freq,
                 "eval_episodes": args.eval_episodes,
             }
-            jobs.append(
-                {
-                    **key,
-                    "key": key,
-                    "time_budget": args.time_budget,
-                    "run_dir": str(args.save_dir / env_id / f"seed_{seed}"),
-                }
-            )
+            run_dir = str(args.save_dir / env_id / f"seed_{seed}")
+            jobs.append({"key": key, "time_budget": args.time_budget, "run_dir": run_dir})
     with mp.get_context("spawn").Pool(min(args.workers, len(jobs))) as pool:
         runs = pool.map(run_one, jobs)
 
@@ -235,13 +224,13 @@ def main() -> None:
         f"first ≥ {args.bar} (steps, s) |",
         "|---|---:|---:|---:|---:|---:|---:|---|",
     ]
-    for job, run in zip(jobs, runs, strict=True):
-        rate, curve = RATE[job["env"]], run["curve"]
+    for run in runs:
+        key, rate, curve = run["job"], RATE[run["job"]["env"]], run["curve"]
         final = curve[-1] if curve else None
         hit = first_at(curve, rate, args.bar)
         run["first_at_bar"] = hit
         rows.append(
-            f"| {job['env']} | {job['seed']} | {run.get('timesteps', 0):,} | {run['train_seconds']:.0f} | "
+            f"| {key['env']} | {key['seed']} | {run.get('timesteps', 0):,} | {run['train_seconds']:.0f} | "
             + (
                 f"{final['mean_return']:.3f} | {final[rate]:.2f} | {max(p[rate] for p in curve):.2f} | "
                 if final
@@ -251,9 +240,9 @@ def main() -> None:
             + ("" if run["done"] else " (unfinished)")
         )
     rows += ["", f"Curves (rate at each evaluation, every {args.eval_freq:,} env steps):", ""]
-    for job, run in zip(jobs, runs, strict=True):
-        rate = RATE[job["env"]]
-        rows.append(f"- {job['env']} seed {job['seed']}: " + " ".join(f"{p[rate]:.2f}" for p in run["curve"]))
+    for run in runs:
+        key, rate = run["job"], RATE[run["job"]["env"]]
+        rows.append(f"- {key['env']} seed {key['seed']}: " + " ".join(f"{p[rate]:.2f}" for p in run["curve"]))
     notes = (
         f"\n\n{args.eval_episodes} deterministic evaluation episodes (the same games each time, played "
         f"at once) every "

@@ -33,9 +33,9 @@ def test_every_benchmark_script_imports_and_has_a_main(path):
 
 def test_hybrid_ddpg_benchmark_rejects_bad_overrides():
     module = _load(BENCHMARKS / "hybrid_ddpg.py")
-    assert module.parse_params(["tau=0.001", "gradient_steps=2"]) == {"tau": 0.001, "gradient_steps": 2}
+    assert module.parse_overrides(["tau=0.001", "gradient_steps=2"]) == {"tau": 0.001, "gradient_steps": 2}
     with pytest.raises(ValueError, match="key=value"):
-        module.parse_params(["tau"])
+        module.parse_overrides(["tau"])
     with pytest.raises(ValueError, match=r"Unknown --params key\(s\) \['taux'\]; accepted: .*'tau'"):
         module.job_settings("HFOScoreEmptyGoal-v0", {"taux": 0.1})
 
@@ -48,7 +48,7 @@ def test_hybrid_ddpg_benchmark_resumes_a_cut_run_to_its_end(tmp_path):
     )
     key = {"env": "HFOMoveToBall-v0", "seed": 0, "timesteps": 60, "settings": settings,
            "eval_freq": 20, "eval_episodes": 1}  # fmt: skip
-    job = {**key, "key": key, "run_dir": str(tmp_path / "run")}
+    job = {"key": key, "run_dir": str(tmp_path / "run")}
 
     cut = module.run_one({**job, "time_budget": 1e-9})  # stops after the first step
     assert not cut["done"] and cut["timesteps"] == 2
@@ -62,7 +62,7 @@ def test_hybrid_ddpg_benchmark_resumes_a_cut_run_to_its_end(tmp_path):
 
     other = {**key, "seed": 1}
     with pytest.raises(ValueError, match="other settings"):
-        module.run_one({**other, "key": other, "run_dir": job["run_dir"], "time_budget": 600.0})
+        module.run_one({"key": other, "run_dir": job["run_dir"], "time_budget": 600.0})
     # the config's n_timesteps only defaults the run's length: a changed one is the same run
     same = {**key, "settings": {**settings, "n_timesteps": 7}}
-    assert module.run_one({**same, "key": same, "run_dir": job["run_dir"], "time_budget": 600.0}) == finished
+    assert module.run_one({"key": same, "run_dir": job["run_dir"], "time_budget": 600.0}) == finished
