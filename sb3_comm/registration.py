@@ -66,14 +66,13 @@ def make_comm_vec_env(
         SB3's ``DummyVecEnv`` of single games (same semantics, slower).
     """
     env_kwargs = dict(env_kwargs or {})
-    if env_id in TASKS and batched:
-        env_kwargs.pop("render_mode", None)
+    if not batched or (env_id not in TASKS and env_id not in SINGLE_AGENT_TASKS):
+        return make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=env_kwargs)
+    env_kwargs.pop("render_mode", None)
+    vec_env: BatchedTwoAgentVecEnv | BatchedSingleAgentVecEnv
+    if env_id in TASKS:
         vec_env = BatchedTwoAgentVecEnv(TASKS[env_id].batched_env(n_games=n_envs, **env_kwargs))
-        vec_env.seed(seed)
-        return vec_env
-    if env_id in SINGLE_AGENT_TASKS and batched:
-        env_kwargs.pop("render_mode", None)
-        single = BatchedSingleAgentVecEnv(SINGLE_AGENT_TASKS[env_id](n_games=n_envs, **env_kwargs))
-        single.seed(seed)
-        return single
-    return make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=env_kwargs)
+    else:
+        vec_env = BatchedSingleAgentVecEnv(SINGLE_AGENT_TASKS[env_id](n_games=n_envs, **env_kwargs))
+    vec_env.seed(seed)
+    return vec_env
