@@ -32,6 +32,8 @@ _FOREIGN_ENTRY_POINTS = {
     "MPESimpleReference-v0": "sb3_comm.foreign.simple_reference:simple_reference_env",  # own channel silenced
 }
 
+_SIMPLE_REFERENCE = "MPESimpleReference-v0"
+
 FOREIGN_IDS: tuple[str, ...] = tuple(_FOREIGN_ENTRY_POINTS)
 """Gymnasium ids of benchmarks from outside the project (their packages are optional extras)."""
 
@@ -57,21 +59,29 @@ def make_comm_vec_env(
 
     :param env_id: a task id (``"BlindSoccer-v0"``, ``"GuessMyNumber-v0"``: see
         :data:`envs.registry.TASKS`), a single-agent HFO id (``"HFOMoveToBall-v0"``,
-        ``"HFOScoreEmptyGoal-v0"``, :class:`~sb3_comm.wrappers.BatchedSingleAgentVecEnv`) or any
-        other Gymnasium id (then SB3's ``make_vec_env`` is used).
+        ``"HFOScoreEmptyGoal-v0"``, :class:`~sb3_comm.wrappers.BatchedSingleAgentVecEnv`),
+        ``"MPESimpleReference-v0"`` (batched: sb3-comm's numpy re-implementation of mpe2's game,
+        :mod:`sb3_comm.foreign.batched_simple_reference`, which needs no mpe2) or any other
+        Gymnasium id (then SB3's ``make_vec_env`` is used).
     :param n_envs: number of parallel games.
     :param seed: seed of the first reset.
     :param env_kwargs: task options (``max_steps``, ``channel_size``, ...).
     :param batched: step the games in one vectorised call (the task's batched core); False gives
-        SB3's ``DummyVecEnv`` of single games (same semantics, slower).
+        SB3's ``DummyVecEnv`` of single games (same semantics, slower; for
+        ``"MPESimpleReference-v0"``, mpe2's own environment).
     """
     env_kwargs = dict(env_kwargs or {})
-    if not batched or (env_id not in TASKS and env_id not in SINGLE_AGENT_TASKS):
+    batchable = env_id in TASKS or env_id in SINGLE_AGENT_TASKS or env_id == _SIMPLE_REFERENCE
+    if not batched or not batchable:
         return make_vec_env(env_id, n_envs=n_envs, seed=seed, env_kwargs=env_kwargs)
     env_kwargs.pop("render_mode", None)
     vec_env: BatchedTwoAgentVecEnv | BatchedSingleAgentVecEnv
     if env_id in TASKS:
         vec_env = BatchedTwoAgentVecEnv(TASKS[env_id].batched_env(n_games=n_envs, **env_kwargs))
+    elif env_id == _SIMPLE_REFERENCE:
+        from sb3_comm.foreign.batched_simple_reference import SimpleReferenceTask
+
+        vec_env = BatchedTwoAgentVecEnv(SimpleReferenceTask(n_games=n_envs, **env_kwargs))
     else:
         vec_env = BatchedSingleAgentVecEnv(SINGLE_AGENT_TASKS[env_id](n_games=n_envs, **env_kwargs))
     vec_env.seed(seed)
