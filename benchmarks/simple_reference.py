@@ -15,6 +15,10 @@ random actions. The figure that counts is the fraction of the communication gap 
 IQM with the 95 % stratified-bootstrap interval. Goal: a method that closes ≥ 0.7 of the gap,
 with a message ablation that shows the gain comes from the messages.
 
+The games are sb3-comm's batched numpy re-implementation of the task
+(:mod:`sb3_comm.foreign.batched_simple_reference`, equal to mpe2's step for step); ``--no-batched``
+plays mpe2's own environment (slower), as the first results file, ``simple_reference.md``, did.
+
 Runs are resumable: each finished run is one JSON file under ``--runs-dir``, and a run whose file
 exists is not run again. The summary (``benchmarks/results/<name>.{json,md}`` and a curve figure)
 is made from all the files present.
@@ -44,20 +48,22 @@ FINAL_SEED = 20_000
 REFERENCE_SEED = 30_000
 
 
-def _vec_env(n: int, seed: int, channel_size: int) -> Any:
+def _vec_env(n: int, seed: int, channel_size: int, batched: bool) -> Any:
     from sb3_comm import make_comm_vec_env
 
-    return make_comm_vec_env(ENV_ID, n_envs=n, seed=seed, env_kwargs={"channel_size": channel_size})
+    return make_comm_vec_env(
+        ENV_ID, n_envs=n, seed=seed, env_kwargs={"channel_size": channel_size}, batched=batched
+    )
 
 
-def references(channel_size: int, episodes: int, seed: int) -> dict[str, float]:
+def references(channel_size: int, episodes: int, seed: int, batched: bool) -> dict[str, float]:
     """Mean team return of each scripted reference over ``episodes`` games."""
     from sb3_comm.evaluation import evaluate_team
     from sb3_comm.foreign.simple_reference import NoCommTeam, OracleTeam, RandomTeam
 
     out = {}
     for name, team in (("oracle", OracleTeam), ("no_comm", NoCommTeam), ("random", RandomTeam)):
-        env = _vec_env(episodes, seed, channel_size)
+        env = _vec_env(episodes, seed, channel_size, batched)
         out[name] = evaluate_team(team(env, seed=seed), env).mean
         env.close()
     return out
@@ -72,8 +78,8 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
     from sb3_comm.evaluation import evaluate_team
 
     th.set_num_threads(1)
-    method, seed, channel = job["method"], job["seed"], job["channel_size"]
-    curve_env = _vec_env(100, CURVE_SEED, channel)
+    method, seed, channel, batched = job["method"], job["seed"], job["channel_size"], job["batched"]
+    curve_env = _vec_env(100, CURVE_SEED, channel, batched)
     curve: list[tuple[int, float]] = []
     eval_seconds = [0.0]
 
@@ -91,14 +97,14 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
                 self.next_at += job["eval_freq"]
             return True
 
-    env = _vec_env(job["n_envs"], seed, channel)
+    env = _vec_env(job["n_envs"], seed, channel, batched)
     model = CommDDPG(method, env, seed=seed, device="cpu", **job.get("params", {}))
     began = time.perf_counter()
     model.learn(job["timesteps"], callback=Curve())
     seconds = time.perf_counter() - began - eval_seconds[0]
     final = {}
     for ablation in ("none", "zero", "shuffle"):
-        final_env = _vec_env(100, FINAL_SEED, channel)
+        final_env = _vec_env(100, FINAL_SEED, channel, batched)
         final[ablation] = evaluate_team(model, final_env, seed=FINAL_SEED, ablation=ablation).mean
         final_env.close()
     result = {
@@ -107,6 +113,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
         "timesteps": job["timesteps"],
         "n_envs": job["n_envs"],
         "channel_size": channel,
+        "batched": batched,
         "params": job.get("params", {}),
         "train_seconds": seconds,
         "curve": curve,
@@ -170,6 +177,7 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
         )
     figure = _plot(runs, methods, refs, args.name)
     extra = "".join(f", {k}={v!r}" for k, v in args.constructor_params.items())
+    game = "sb3-comm's batched game (equal to mpe2's step for step)" if args.batched else "mpe2's own game"
     ref_text = (
         f"\n\nReferences on the 100 final games (seed {FINAL_SEED}): oracle {final_refs['oracle']:.3f}, "
         f"no-comm {final_refs['no_comm']:.3f}, random {final_refs['random']:.3f}; on "
@@ -180,7 +188,7 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
         "fraction with every received message set to 0, or taken from another game. Every model is "
         f"`CommDDPG(method, env, seed=seed{extra})` "
         f"with no other argument, {args.n_envs} games, "
-        f"{args.timesteps:,} steps, channel size {args.channel_size}; one torch thread per run, "
+        f"{args.timesteps:,} steps, channel size {args.channel_size}; {game}; one torch thread per run, "
         f"{args.workers} runs at a time. Goal: a method whose gap closed is ≥ 0.7. "
         f"Learning curves: [{figure.name}]({figure.name}) (mean, 95 % t-interval and the worst seed "
         "per method)."
@@ -231,6 +239,12 @@ def main() -> None:
     parser.add_argument(
         "--runs-dir", default=None, help="one JSON per finished run (default: results/<name>_runs)"
     )
+    parser.add_argument(
+        "--batched",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="train and evaluate on sb3-comm's batched numpy game (default), or on mpe2's own",
+    )
     parser.add_argument("--name", default="simple_reference")
     parser.add_argument("--summary-only", action="store_true", help="summarise the runs present, train none")
     parser.add_argument("--note", default="", help="a paragraph added to the Markdown summary")
@@ -257,6 +271,7 @@ def main() -> None:
             "timesteps": args.timesteps,
             "n_envs": args.n_envs,
             "channel_size": args.channel_size,
+            "batched": args.batched,
             "eval_freq": args.eval_freq,
             "runs_dir": str(runs_dir),
             "params": params,
@@ -281,14 +296,18 @@ def main() -> None:
 
     runs = [json.loads(p.read_text()) for p in sorted(runs_dir.glob("*_seed*.json"))]
     runs = [r for r in runs if r["timesteps"] == args.timesteps]
+    runs = [r for r in runs if r.get("batched", False) == args.batched]  # earlier runs: mpe2's own
     runs = [r for r in runs if r["method"] in args.methods and r["seed"] in args.seeds]
-    refs_path = runs_dir / f"references_{args.channel_size}.json"
+    backend = "" if not args.batched else "_batched"  # earlier reference files: mpe2's own game
+    refs_path = runs_dir / f"references_{args.channel_size}{backend}.json"
     if refs_path.exists():
         refs = json.loads(refs_path.read_text())
     else:
         refs = {
-            "final_games": references(args.channel_size, 100, FINAL_SEED),
-            "many_games": references(args.channel_size, args.reference_episodes, REFERENCE_SEED),
+            "final_games": references(args.channel_size, 100, FINAL_SEED, args.batched),
+            "many_games": references(
+                args.channel_size, args.reference_episodes, REFERENCE_SEED, args.batched
+            ),
             "episodes": args.reference_episodes,
         }
         write_json(refs_path, to_jsonable(refs))
