@@ -49,8 +49,10 @@ class JointReplayBuffer(MonteCarloReplayBuffer):
     """Recomputes the heard messages of every sample (None: as stored). Not saved with the buffer."""
     episode_starts: np.ndarray | None = None  # None in buffers pickled before it existed
 
-    def __init__(self, *args: Any, n_agents: int = 2, **kwargs: Any) -> None:
+    def __init__(self, *args: Any, n_agents: int = 2, shared_reward: bool = False, **kwargs: Any) -> None:
         self.n_agents = n_agents  # read by _rows() while the base class allocates the storage
+        self.shared_reward = bool(shared_reward)
+        """Store the agents' mean reward for every agent (the team's reward) instead of each one's own."""
         super().__init__(*args, **kwargs)
         self.episode_starts = np.zeros((self.buffer_size, self.n_envs), dtype=bool)
         """(steps, n_envs) the transition's observation is the first of an episode."""
@@ -127,11 +129,15 @@ class JointReplayBuffer(MonteCarloReplayBuffer):
         return (self.n_agents, int(np.prod(space.shape)) // self.n_agents)
 
     def step_rewards(self, reward: np.ndarray, infos: list[dict[str, Any]]) -> np.ndarray:
-        """Per-agent rewards ``(n_envs, n_agents)`` from ``infos[i]["agent_rewards"]``."""
+        """Per-agent rewards ``(n_envs, n_agents)`` from ``infos[i]["agent_rewards"]``; with
+        ``shared_reward`` their mean, the team's reward, for every agent."""
         try:
-            return np.asarray([info["agent_rewards"] for info in infos], dtype=np.float32)
+            rewards = np.asarray([info["agent_rewards"] for info in infos], dtype=np.float32)
         except KeyError as error:
             raise KeyError(
                 "JointReplayBuffer needs per-agent rewards in info['agent_rewards']; wrap the "
                 "environment with sb3_comm.wrappers.TwoAgentEnv or BatchedTwoAgentVecEnv"
             ) from error
+        if getattr(self, "shared_reward", False):  # a buffer pickled before the option has none
+            rewards[:] = rewards.mean(axis=1, keepdims=True)
+        return rewards

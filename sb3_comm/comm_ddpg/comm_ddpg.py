@@ -105,6 +105,15 @@ class CommDDPG(HybridDDPG):
         sender rows for the observation, the transition's own rows for the next observation),
         instead of the messages of the GSN as it was when the transition was stored
         (:class:`~sb3_comm.comm_ddpg.buffers.JointReplayBuffer`).
+    :param shared_reward: every agent learns from the team's reward, the mean of the agents'
+        rewards (the cooperative objective; MPE's ``shared_reward`` for its collaborative tasks),
+        instead of its own reward in ``info["agent_rewards"]`` (False: the paper's setting, what
+        the packaged configurations use; on Blind Soccer both agents' rewards are equal anyway).
+        None (default): True, except for a model loaded from a file saved before this option
+        existed, which keeps learning from its own rewards as it did. On a task whose agents'
+        rewards differ, the agent's own reward may hang mostly on what its teammate does
+        (simple_reference: ¾ of it), so that its critic learns from noise it cannot act on
+        (``benchmarks/results/simple_reference_shared_reward*.md``).
     :param channel_size: expected message size; must match the environment's (None: take it).
     :param share_parameters: one set of networks for both agents (role one-hot in the observation)
         or one per agent, as in the paper.
@@ -158,6 +167,7 @@ class CommDDPG(HybridDDPG):
         mc_mixing: float | Schedule = 0.0,
         tcg_gain: float = 1.0,
         relabel_messages: bool = False,
+        shared_reward: bool | None = None,
         channel_size: int | None = None,
         share_parameters: bool = True,
         max_grad_norm: float | None = 10.0,
@@ -182,6 +192,7 @@ class CommDDPG(HybridDDPG):
                 "gsn_max_explore_messages": gsn_max_explore_messages,
                 "tcg_gain": tcg_gain,
                 "relabel_messages": relabel_messages,
+                "shared_reward": shared_reward,
                 "channel_size": channel_size,
                 "share_parameters": share_parameters,
             }
@@ -192,6 +203,9 @@ class CommDDPG(HybridDDPG):
         self.gsn_max_explore_messages = gsn_max_explore_messages
         self.tcg_gain = tcg_gain
         self.relabel_messages = relabel_messages
+        # SB3's load builds the model with _init_setup_model=False, then sets the saved attributes:
+        # a file from before this option has none, and it learned from its own rewards.
+        self.shared_reward = bool(_init_setup_model if shared_reward is None else shared_reward)
         self.channel_size = channel_size
         self.share_parameters = share_parameters
         self.gsn_callback: GSNTrainingCallback | None = None
@@ -281,7 +295,11 @@ class CommDDPG(HybridDDPG):
                 f"size {layout.channel_size}; pass channel_size={layout.channel_size} or None"
             )
         self.comm_layout = layout
-        self.replay_buffer_kwargs = {**self.replay_buffer_kwargs, "n_agents": layout.n_agents}
+        self.replay_buffer_kwargs = {
+            **self.replay_buffer_kwargs,
+            "n_agents": layout.n_agents,
+            "shared_reward": self.shared_reward,
+        }
         return {"comm_layout": layout, "share_parameters": self.share_parameters}
 
     def _explorable_entries(self) -> np.ndarray:
@@ -362,6 +380,7 @@ class CommDDPG(HybridDDPG):
         """:meth:`HybridDDPG.load_replay_buffer <sb3_comm.HybridDDPG.load_replay_buffer>`, with the
         message relabelling attached again (it is not saved with the buffer)."""
         super().load_replay_buffer(path, truncate_last_traj)
+        self.replay_buffer.shared_reward = self.shared_reward  # the model's setting, not the file's
         self._attach_relabeler()
 
     @property

@@ -219,11 +219,16 @@ class Widths:
 
 @dataclass(frozen=True)
 class Flag:
-    """True or False."""
+    """True or False (and None where ``none_means`` says what None stands for)."""
+
+    none_means: str | None = None
 
     def __call__(self, name: str, value: Any) -> None:
+        if value is None and self.none_means is not None:
+            return
         if not isinstance(value, bool | np.bool_):
-            raise TypeError(f"{name} must be True or False, got {value!r} ({type(value).__name__})")
+            accepted = "True or False" + (f" (or None: {self.none_means})" if self.none_means else "")
+            raise TypeError(f"{name} must be {accepted}, got {value!r} ({type(value).__name__})")
 
 
 @dataclass(frozen=True)
@@ -330,6 +335,7 @@ HYPERPARAMETERS: dict[str, Check] = {
     "mc_mixing": FractionOrSchedule(),
     "tcg_gain": Range(),
     "relabel_messages": Flag(),
+    "shared_reward": Flag(none_means="the default, True"),
     "channel_size": Range(0, whole=True, special=(None,), hint="None: the environment's"),
     "share_parameters": Flag(),
     "max_grad_norm": Range(0.0, low_open=True, special=(None,), hint="None disables gradient clipping"),
