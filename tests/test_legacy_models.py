@@ -21,6 +21,7 @@ PREDICTIONS = np.load(DATA / "predictions_v0.1.0.npz")
 def test_commddpg_file_of_0_1_0_loads_and_predicts_the_same(method: str, policy_class: type) -> None:
     model = CommDDPG.load(DATA / f"commddpg_{method.lower()}_v0.1.0.zip", device="cpu")
     assert type(model.policy) is policy_class and model.method == method
+    assert model.shared_reward is False  # trained on each agent's own reward, it keeps learning so
     actions, _ = model.predict(PREDICTIONS[f"{method}_obs"], deterministic=True)
     # the same to float precision: matrix products round differently on other CPUs (AVX2, AVX-512)
     np.testing.assert_allclose(actions, PREDICTIONS[f"{method}_actions"], rtol=1e-5, atol=1e-4)
