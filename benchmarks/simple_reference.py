@@ -18,6 +18,9 @@ with a message ablation that shows the gain comes from the messages.
 The games are sb3-comm's batched numpy re-implementation of the task
 (:mod:`sb3_comm.foreign.batched_simple_reference`, equal to mpe2's step for step); ``--no-batched``
 plays mpe2's own environment (slower), as the first results file, ``simple_reference.md``, did.
+``--perfect-channel`` is a diagnostic, not a method: every agent hears its own target's colour
+where its teammate's message would be, which measures what the learner reaches when the channel
+carries exactly what is needed (run it with NONE, whose own messages are zeros).
 
 Runs are resumable: each finished run is one JSON file under ``--runs-dir``, and a run whose file
 exists is not run again. The summary (``benchmarks/results/<name>.{json,md}`` and a curve figure)
@@ -48,9 +51,31 @@ FINAL_SEED = 20_000
 REFERENCE_SEED = 30_000
 
 
-def _vec_env(n: int, seed: int, channel_size: int, batched: bool) -> Any:
-    from sb3_comm import make_comm_vec_env
+def _perfect_channel_task(n: int, seed: int, channel_size: int) -> Any:
+    """The batched game with a perfect channel: each agent hears its own target's colour."""
+    from sb3_comm.foreign.batched_simple_reference import LANDMARK_COLOURS, N_FEATURES, SimpleReferenceTask
 
+    class PerfectChannelTask(SimpleReferenceTask):
+        def _observe(self, games: Any = None) -> np.ndarray:
+            obs = super()._observe(games)
+            index = slice(None) if games is None else games
+            # agent i's target is the landmark its teammate knows: goal[:, j]
+            obs[..., N_FEATURES : N_FEATURES + 3] = LANDMARK_COLOURS[self.goal[index][:, ::-1]]
+            return obs
+
+    if channel_size < 3:
+        raise ValueError(f"--perfect-channel needs --channel-size >= 3 (a colour), got {channel_size}")
+    return PerfectChannelTask(n, seed=seed, channel_size=channel_size)
+
+
+def _vec_env(n: int, seed: int, channel_size: int, batched: bool, perfect_channel: bool = False) -> Any:
+    from sb3_comm import make_comm_vec_env
+    from sb3_comm.wrappers import BatchedTwoAgentVecEnv
+
+    if perfect_channel:
+        vec_env = BatchedTwoAgentVecEnv(_perfect_channel_task(n, seed, channel_size))
+        vec_env.seed(seed)
+        return vec_env
     return make_comm_vec_env(
         ENV_ID, n_envs=n, seed=seed, env_kwargs={"channel_size": channel_size}, batched=batched
     )
@@ -79,7 +104,8 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
 
     th.set_num_threads(1)
     method, seed, channel, batched = job["method"], job["seed"], job["channel_size"], job["batched"]
-    curve_env = _vec_env(100, CURVE_SEED, channel, batched)
+    perfect = job.get("perfect_channel", False)
+    curve_env = _vec_env(100, CURVE_SEED, channel, batched, perfect)
     curve: list[tuple[int, float]] = []
     eval_seconds = [0.0]
 
@@ -97,14 +123,14 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
                 self.next_at += job["eval_freq"]
             return True
 
-    env = _vec_env(job["n_envs"], seed, channel, batched)
+    env = _vec_env(job["n_envs"], seed, channel, batched, perfect)
     model = CommDDPG(method, env, seed=seed, device="cpu", **job.get("params", {}))
     began = time.perf_counter()
     model.learn(job["timesteps"], callback=Curve())
     seconds = time.perf_counter() - began - eval_seconds[0]
     final = {}
     for ablation in ("none", "zero", "shuffle"):
-        final_env = _vec_env(100, FINAL_SEED, channel, batched)
+        final_env = _vec_env(100, FINAL_SEED, channel, batched, perfect)
         final[ablation] = evaluate_team(model, final_env, seed=FINAL_SEED, ablation=ablation).mean
         final_env.close()
     result = {
@@ -114,6 +140,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
         "n_envs": job["n_envs"],
         "channel_size": channel,
         "batched": batched,
+        "perfect_channel": perfect,
         "params": job.get("params", {}),
         "train_seconds": seconds,
         "curve": curve,
@@ -178,6 +205,11 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
     figure = _plot(runs, methods, refs, args.name)
     extra = "".join(f", {k}={v!r}" for k, v in args.constructor_params.items())
     game = "sb3-comm's batched game (equal to mpe2's step for step)" if args.batched else "mpe2's own game"
+    if args.perfect_channel:
+        game += (
+            ", with a **perfect channel**: every agent hears its own target's colour in its first three "
+            "message entries instead of its teammate's message (a ceiling for the learner, not a method)"
+        )
     ref_text = (
         f"\n\nReferences on the 100 final games (seed {FINAL_SEED}): oracle {final_refs['oracle']:.3f}, "
         f"no-comm {final_refs['no_comm']:.3f}, random {final_refs['random']:.3f}; on "
@@ -245,6 +277,11 @@ def main() -> None:
         default=True,
         help="train and evaluate on sb3-comm's batched numpy game (default), or on mpe2's own",
     )
+    parser.add_argument(
+        "--perfect-channel",
+        action="store_true",
+        help="a diagnostic: every agent hears its own target (batched game only); the learner's ceiling",
+    )
     parser.add_argument("--name", default="simple_reference")
     parser.add_argument("--summary-only", action="store_true", help="summarise the runs present, train none")
     parser.add_argument("--note", default="", help="a paragraph added to the Markdown summary")
@@ -261,6 +298,8 @@ def main() -> None:
             parser.error(f"--params takes key=value, got {item!r}")
         params[key] = yaml.safe_load(value)
     args.constructor_params = params
+    if args.perfect_channel and not args.batched:
+        parser.error("--perfect-channel needs the batched game (drop --no-batched)")
     runs_dir = Path(args.runs_dir or RESULTS_DIR / f"{args.name}_runs")
     runs_dir.mkdir(parents=True, exist_ok=True)
 
@@ -272,6 +311,7 @@ def main() -> None:
             "n_envs": args.n_envs,
             "channel_size": args.channel_size,
             "batched": args.batched,
+            "perfect_channel": args.perfect_channel,
             "eval_freq": args.eval_freq,
             "runs_dir": str(runs_dir),
             "params": params,
@@ -297,6 +337,7 @@ def main() -> None:
     runs = [json.loads(p.read_text()) for p in sorted(runs_dir.glob("*_seed*.json"))]
     runs = [r for r in runs if r["timesteps"] == args.timesteps]
     runs = [r for r in runs if r.get("batched", False) == args.batched]  # earlier runs: mpe2's own
+    runs = [r for r in runs if r.get("perfect_channel", False) == args.perfect_channel]
     runs = [r for r in runs if r["method"] in args.methods and r["seed"] in args.seeds]
     backend = "" if not args.batched else "_batched"  # earlier reference files: mpe2's own game
     refs_path = runs_dir / f"references_{args.channel_size}{backend}.json"

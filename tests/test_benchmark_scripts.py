@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+import numpy as np
 import pytest
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
@@ -66,3 +67,22 @@ def test_hybrid_ddpg_benchmark_resumes_a_cut_run_to_its_end(tmp_path):
     # the config's n_timesteps only defaults the run's length: a changed one is the same run
     same = {**key, "settings": {**settings, "n_timesteps": 7}}
     assert module.run_one({"key": same, "run_dir": job["run_dir"], "time_budget": 600.0}) == finished
+
+
+def test_simple_reference_perfect_channel_hears_the_own_target():
+    """The diagnostic game: where the teammate's message would be, each agent hears its own target's
+    colour, i.e. the colour in its teammate's row (what the oracle reads); the game is the same."""
+    module = _load(BENCHMARKS / "simple_reference.py")
+    perfect = module._vec_env(50, 3, 4, batched=True, perfect_channel=True)
+    plain = module._vec_env(50, 3, 4, batched=True)
+    layout = perfect.get_attr("comm_layout")[0]
+    heard = layout.obs_message_slice
+    rows, plain_rows = perfect.reset(), plain.reset()
+    for _ in range(30):  # through an episode's end: the fresh games hear their targets at once
+        np.testing.assert_array_equal(rows[:, :, heard.start : heard.start + 3], rows[:, ::-1, 8:11])
+        np.testing.assert_array_equal(rows[:, :, : heard.start], plain_rows[:, :, : heard.start])
+        action = np.full((50, *perfect.action_space.shape), 0.5, dtype=np.float32)
+        rows, *_ = perfect.step(action)
+        plain_rows, *_ = plain.step(action)
+    with pytest.raises(ValueError, match="needs --channel-size >= 3"):
+        module._vec_env(2, 0, 2, batched=True, perfect_channel=True)
