@@ -324,13 +324,18 @@ def main() -> None:
         from sb3_comm.experiments.runner import start_worker
 
         with mp.get_context("spawn").Pool(
-            args.workers,
+            min(args.workers, len(jobs)),
             initializer=start_worker,
             initargs=(args.workers,),
             maxtasksperchild=1,
         ) as pool:
             for _ in pool.imap_unordered(run_one, jobs):
                 pass
+            # Let the workers exit on their own: leaving the block terminates the pool, and
+            # terminating a pool with maxtasksperchild can deadlock on a worker that a
+            # replacement had just started (CPython's _help_stuff_finish waits on the queue's lock).
+            pool.close()
+            pool.join()
 
     import json
 
