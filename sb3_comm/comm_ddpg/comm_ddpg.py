@@ -112,9 +112,9 @@ class CommDDPG(HybridDDPG):
         None (default): True, except for a model loaded from a file saved before this option
         existed, which keeps learning from its own rewards as it did. On a task whose agents'
         rewards differ, the agent's own reward may hang mostly on what its teammate does
-        (simple_reference: ¾ of it), which its movement cannot change, so its critic learns from noise: there,
-        with the defaults, GSN closed 0.29 of the communication gap with the team's reward and
-        none with its own (``benchmarks/results/simple_reference_shared_reward_300k.md``,
+        (simple_reference: ¾ of it), which its movement cannot change, so its critic learns
+        from noise: there, with the defaults, GSN closed 0.29 of the communication gap with the
+        team's reward and none with its own (``benchmarks/results/simple_reference_shared_reward_300k.md``,
         ``simple_reference_own_reward_300k.md``).
     :param channel_size: expected message size; must match the environment's (None: take it).
     :param share_parameters: one set of networks for both agents (role one-hot in the observation)
