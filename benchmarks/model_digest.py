@@ -44,7 +44,13 @@ def main() -> None:
     parser.add_argument("--n-envs", type=int, default=16)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--name", default="model_digest")
+    parser.add_argument(
+        "--threads", type=int, default=None,
+        help="torch threads (default: torch's); fewer than the cores: a GSN trains in a worker process",
+    )  # fmt: skip
     args = parser.parse_args()
+    if args.threads is not None:
+        th.set_num_threads(args.threads)
     digests = {}
     for method in args.methods:
         env = make_comm_vec_env(args.env, n_envs=args.n_envs, seed=args.seed)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import copy
 import inspect
-import threading
+import os
 
 import pytest
 import torch as th
@@ -101,7 +101,7 @@ def test_a_scheduled_mc_mixing_uses_beta_at_the_current_progress() -> None:
 
 
 def test_one_gsn_update_beside_the_agents_equals_the_reference(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A GSN update run on the second thread, beside the agents' update, is the plain regression
+    """A GSN update run in the worker process, beside the agents' update, is the plain regression
     step of paper eq. 2: MSE on the standardised teammate reward, clipping, Adam."""
     from sb3_comm.comm_ddpg import gsn as gsn_module
 
@@ -113,7 +113,7 @@ def test_one_gsn_update_beside_the_agents_equals_the_reference(monkeypatch: pyte
     )  # fmt: skip
     model.learn(60)
     callback = model.gsn_callback
-    assert callback is not None and callback.uses_thread()
+    assert callback is not None and callback.uses_worker()
     data = model.replay_buffer.sample(16)
     model.replay_buffer.sample = lambda *args, **kwargs: data  # the same batch for GSN and agents
     ref = copy.deepcopy(model.policy.gsn)
@@ -141,14 +141,17 @@ def test_one_gsn_update_beside_the_agents_equals_the_reference(monkeypatch: pyte
     th.nn.utils.clip_grad_norm_(list(ref.parameters()), 0.5, foreach=False)
     optimizer.step()
 
-    threads = []
+    pids = []
     updates = callback._updates
-    monkeypatch.setattr(
-        callback, "_updates", lambda b: (threads.append(threading.current_thread()), updates(b))[1]
-    )
+    monkeypatch.setattr(callback, "_updates", lambda b: (pids.append(os.getpid()), updates(b))[1])
     model._in_learn = True  # as inside learn(): train() brackets the agents' update with the GSN's
     model.train(gradient_steps=1, batch_size=16)
-    assert threads and threads[0] is not threading.main_thread()
+    worker = callback._worker
+    assert worker is not None and worker.alive  # the update ran in the worker process ...
+    assert pids == []  # ... not in this one
+    assert callback.n_updates == model.n_updates
+    callback.close()
+    assert not worker.alive
     for (name, fast), slow in zip(
         model.policy.gsn.state_dict().items(), ref.state_dict().values(), strict=True
     ):
@@ -156,9 +159,18 @@ def test_one_gsn_update_beside_the_agents_equals_the_reference(monkeypatch: pyte
 
 
 def test_gsn_beside_the_agents_trains_the_same_model_as_after_them(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The thread changes the time only: the same seed gives the same parameters, bit for bit."""
+    """The worker process changes the time only: the same seed gives the same parameters (GSN,
+    its optimizer's state, the agents), bit for bit."""
     from sb3_comm.comm_ddpg import gsn as gsn_module
 
+    started = []
+
+    class CountedWorker(gsn_module.GSNWorker):
+        def __init__(self, callback, *args, **kwargs) -> None:
+            started.append(callback)
+            super().__init__(callback, *args, **kwargs)
+
+    monkeypatch.setattr(gsn_module, "GSNWorker", CountedWorker)
     states = {}
     for beside in (True, False):
         monkeypatch.setattr(gsn_module, "spare_core", lambda beside=beside: beside)
@@ -167,8 +179,17 @@ def test_gsn_beside_the_agents_trains_the_same_model_as_after_them(monkeypatch: 
             "GSN", env, batch_size=16, learning_starts=20, seed=0, policy_kwargs={"net_arch": [16]}
         )
         model.learn(200)
-        assert model.gsn_callback.n_updates == model.n_updates > 0
-        states[beside] = model.policy.state_dict()
+        model.learn(100, reset_num_timesteps=False)  # a second learn call forks a new worker
+        assert model.gsn_callback.agent_updates_matched == model.n_updates  # every update matched
+        assert model.gsn_callback.n_updates > 0
+        assert model.gsn_callback._worker is None  # stopped at the end of learn
+        gsn_optimizer = model.policy.gsn.optimizer.state_dict()["state"]
+        states[beside] = {
+            **model.policy.state_dict(),
+            **{f"gsn_adam.{i}.{k}": v for i, s in gsn_optimizer.items() for k, v in s.items()},
+        }
+    assert len(started) == 2  # one worker per learn call with a spare core, none without
+    assert len(states[True]) == len(states[False])
     for name, tensor in states[True].items():
         assert th.equal(tensor, states[False][name]), name
 

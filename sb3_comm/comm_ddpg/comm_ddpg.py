@@ -392,6 +392,8 @@ class CommDDPG(HybridDDPG):
 
     def _init_callback(self, callback: MaybeCallback, progress_bar: bool = False) -> BaseCallback:
         callback = super()._init_callback(callback, progress_bar)
+        if self.gsn_callback is not None:  # the last learn call's (its worker, if train() started one)
+            self.gsn_callback.close()
         self.gsn_callback = None
         if self.gsn is not None:
             self.gsn_callback = GSNTrainingCallback(
@@ -553,3 +555,5 @@ class CommDDPG(HybridDDPG):
             )
         finally:
             self._in_learn = False
+            if self.gsn_callback is not None:  # its worker process, if any, ends with learn
+                self.gsn_callback.close()

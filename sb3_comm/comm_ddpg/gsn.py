@@ -13,12 +13,12 @@ callback, and, inside ``learn``, tells it when an agent update begins and ends
 (:meth:`GSNTrainingCallback.begin_updates`, :meth:`~GSNTrainingCallback.end_updates`).
 
 Speed: a GSN update reads only the GSN and its own batch, and an agent update never reads the GSN,
-so on a machine with a core to spare the GSN's updates run on a second thread *beside* the agents'
-updates of the same ``train`` call (torch releases the GIL in its kernels). Every batch is drawn
-first, on the main thread, the agents' and then the GSN's, in the order in which the GSN trained
-after the agents before: a run is the same, to the bit, with the thread or without it, and as
-when the GSN trained after the agents. GSN-MAX's update reads the agents' critic, so it runs
-after theirs.
+so on a machine with a core to spare the GSN's updates run in a second process *beside* the agents'
+updates of the same ``train`` call (:class:`~sb3_comm.comm_ddpg.gsn_worker.GSNWorker`; a thread
+gained nothing: two threads of small torch operations mostly wait for each other's GIL). Every
+batch is drawn first, in the trainer, the agents' and then the GSN's, in the order in which the GSN
+trained after the agents before: a run is the same, to the bit, with the worker or without it.
+GSN-MAX's update reads the agents' critic, so it runs after theirs, in the trainer.
 """
 
 from __future__ import annotations
@@ -26,7 +26,6 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 import torch as th
@@ -36,12 +35,13 @@ from stable_baselines3.common.utils import FloatSchedule
 from torch import nn
 from torch.nn import functional as F
 
+from sb3_comm.comm_ddpg.gsn_worker import GSNWorker, can_fork, optimizer_state_complete
 from sb3_comm.common.networks import AgentMLPs, clip_gradients, gradient_step
 
 __all__ = ["BESIDE_AGENTS", "GSNTrainingCallback", "GroundedSemanticNetwork", "spare_core"]
 
 BESIDE_AGENTS = True
-"""Let GSN updates run on a second thread beside the agents' updates where a core is spare
+"""Let GSN updates run in a second process beside the agents' updates where a core is spare
 (:func:`spare_core`). The experiment runner turns it off in processes that share the cores with
 other runs."""
 
@@ -216,7 +216,7 @@ class GSNTrainingCallback(BaseCallback):
     ``"GSN-MAX"``. Inside ``learn``, every ``train()`` call of the model brackets its agent updates
     with :meth:`begin_updates` and :meth:`end_updates`: the callback draws as many batches of joint
     tuples ``(o_sender, a_teammate, r_teammate)`` as the agents will make updates, and performs a
-    GSN update on each, beside the agents' updates on a second thread where a core is spare
+    GSN update on each, beside the agents' updates in a second process where a core is spare
     (GSN), or after them (GSN-MAX, whose update reads their critic; or no core spare). Agent updates
     made otherwise (``model.train()`` called outside ``learn``) are caught up at the start of the
     next rollout and at the end of training. It reads only the model's public ``policy.gsn``,
@@ -233,7 +233,7 @@ class GSNTrainingCallback(BaseCallback):
     :param max_weight: GSN-MAX's weight ``w`` of the maximising signal (other methods: unused).
     :param signals: GSN-MAX's signals, one of ``GSN_MAX_SIGNALS`` (``"both"``, ``"grounding"``,
         ``"maximising"``); GSN always uses only the grounding.
-    :param beside_agents: run GSN updates on a second thread beside the agents' (None: where
+    :param beside_agents: run GSN updates in a second process beside the agents' (None: where
         :data:`BESIDE_AGENTS` allows it, a core is spare (:func:`spare_core`) and the update does
         not read the agents' networks). The result is the same either way; only the time differs.
     :param verbose: 0 silent, 1 info.
@@ -265,8 +265,8 @@ class GSNTrainingCallback(BaseCallback):
         """GSN updates performed by this callback."""
         self.agent_updates_matched = 0
         """The model's agent-update count that the GSN updates have caught up with."""
-        self._pool: ThreadPoolExecutor | None = None
-        self._running: Future | None = None
+        self._worker: GSNWorker | None = None
+        self._submitted = 0
         self._deferred: Callable[[], list[tuple[str, Any, int]]] | None = None
 
     def _init_callback(self) -> None:
@@ -281,19 +281,20 @@ class GSNTrainingCallback(BaseCallback):
     def _on_training_end(self) -> None:
         self.end_updates()
         self._on_rollout_start()
-        if self._pool is not None:
-            self._pool.shutdown(wait=True)
-            self._pool = None
+        self.close()
 
     def _on_step(self) -> bool:
         return True
 
     # ------------------------------------------------------------------------- updates --
-    def uses_thread(self) -> bool:
-        """Whether :meth:`begin_updates` runs the GSN's updates on a second thread."""
+    def uses_worker(self) -> bool:
+        """Whether :meth:`begin_updates` runs the GSN's updates in a second process
+        (:class:`~sb3_comm.comm_ddpg.gsn_worker.GSNWorker`): a GSN (GSN-MAX's update reads the
+        agents' critic) on the CPU, on Linux, where a core is spare or ``beside_agents`` asks."""
         policy = self.model.policy  # type: ignore[union-attr]
         reads_agents = getattr(policy.comm_method, "message_gradient", None) is not None  # GSN-MAX
-        if reads_agents:
+        on_cpu = policy.gsn is not None and policy.gsn.reward_mean.device.type == "cpu"
+        if reads_agents or not on_cpu or not can_fork():
             return False
         if self.beside_agents is not None:
             return self.beside_agents
@@ -302,8 +303,10 @@ class GSNTrainingCallback(BaseCallback):
     def begin_updates(self, n_updates: int) -> None:
         """Start the GSN updates that match ``n_updates`` agent updates about to be made.
 
-        Draws the batches now (so the random stream does not depend on threads), then runs the
-        updates on the second thread (:meth:`uses_thread`) or keeps them for :meth:`end_updates`.
+        Draws the batches now (so the random stream does not depend on where the updates run),
+        then sends them to the worker process (:meth:`uses_worker`) or keeps them for
+        :meth:`end_updates`. The first update of a ``learn`` call runs in the trainer when the
+        optimizer has no state yet (the worker shares the state the trainer holds).
 
         :param n_updates: agent updates the model is about to make.
         """
@@ -312,21 +315,32 @@ class GSNTrainingCallback(BaseCallback):
         if not batches:
             return
         self.agent_updates_matched += n_updates
-        if self.uses_thread():
-            if self._pool is None:
-                self._pool = ThreadPoolExecutor(1, thread_name_prefix="gsn")
-            self._running = self._pool.submit(self._updates, batches)
+        gsn = self.model.policy.gsn  # type: ignore[union-attr]
+        if self.uses_worker() and (self._worker is not None or optimizer_state_complete(gsn.optimizer)):
+            if self._worker is None:
+                self._worker = GSNWorker(self, batches[0], capacity=len(batches))
+            self._worker.submit(gsn.optimizer.param_groups[0]["lr"], batches)
+            self._submitted = len(batches)
         else:
             self._deferred = lambda: self._updates(batches)
 
     def end_updates(self) -> None:
-        """Finish the updates started by :meth:`begin_updates` (wait for the thread, or run them)."""
-        if self._running is not None:
-            running, self._running = self._running, None
-            self._record(running.result())  # re-raises an error of the thread here
+        """Finish the updates started by :meth:`begin_updates` (wait for the worker, or run them)."""
+        if self._submitted:
+            count, self._submitted = self._submitted, 0
+            assert self._worker is not None
+            self._record(self._worker.result())  # re-raises an error of the worker here
+            self.n_updates += count
         if self._deferred is not None:
             deferred, self._deferred = self._deferred, None
             self._record(deferred())
+
+    def close(self) -> None:
+        """Stop the worker process, if any (the end of ``learn``; a later call forks a new one)."""
+        self._submitted = 0
+        if self._worker is not None:
+            worker, self._worker = self._worker, None
+            worker.close()
 
     def train_gsn(self, n_updates: int) -> None:
         """``n_updates`` GSN regressions on uniformly sampled joint tuples (paper eq. 2), now.
@@ -362,7 +376,7 @@ class GSNTrainingCallback(BaseCallback):
 
     def _updates(self, batches: list[Any]) -> list[tuple[str, Any, int]]:
         """One GSN update per batch; returns the values to log (the model's log is not touched
-        here: this may run on the second thread)."""
+        here: this may run in the worker process)."""
         began = time.perf_counter()
         policy = self.model.policy  # type: ignore[union-attr]
         gsn: GroundedSemanticNetwork = policy.gsn
