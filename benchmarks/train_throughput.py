@@ -182,6 +182,10 @@ def main() -> None:
             model.learn(args.steps, reset_num_timesteps=False)
             rounds[name].append(args.steps / (time.perf_counter() - began))
         print(f"round {k + 1}: " + "  ".join(f"{n} {r[-1]:.0f}" for n, r in rounds.items()), flush=True)
+    gsn_model = models.get("GSN")
+    worker = bool(
+        gsn_model is not None and gsn_model.gsn_callback is not None and gsn_model.gsn_callback.uses_worker()
+    )
     rates = {name: max(r) for name, r in rounds.items()}
     medians = {name: statistics.median(r) for name, r in rounds.items()}
     overhead = {
@@ -200,7 +204,9 @@ def main() -> None:
         f"is warmed up for {args.warmup} env steps, then timed for {args.steps} env steps in each of "
         f"{args.repeats} rounds; a round times every model in turn, and the overhead is the median over "
         "rounds of TD3's rate over the model's in that round (a slow phase of the machine hits a whole "
-        "round). Overhead < 1: faster than TD3. Target: ≤ 1.0 for every method."
+        "round). Overhead < 1: faster than TD3. Target: ≤ 1.0 for every method. GSN's updates in a "
+        f"worker process on a spare core (`sb3_comm/comm_ddpg/gsn_worker.py`): {'yes' if worker else 'no'}; "
+        "the other models use no second process."
     )
     write_results(
         args.name or f"train_throughput_{args.env.split('-')[0].lower()}",
@@ -210,6 +216,7 @@ def main() -> None:
             "env_steps_per_second_median": medians,
             "env_steps_per_second_rounds": rounds,
             "overhead_vs_td3": overhead,
+            "gsn_worker": worker,
         },
         "\n".join(rows) + notes,
         title="Training throughput: CommDDPG vs SB3 TD3",

@@ -56,7 +56,7 @@ __all__ = [
 
 def start_worker(workers: int) -> None:
     """A worker process of a pool of ``workers``: it ends with its parent, and its GSN updates use a
-    second thread only where the runs leave cores spare (one core per run otherwise)."""
+    second process only where the runs leave cores spare (one core per run otherwise)."""
     from sb3_comm.comm_ddpg import gsn
 
     die_with_parent()
