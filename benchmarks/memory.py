@@ -40,7 +40,15 @@ def main() -> None:
     parser.add_argument("--method", default="GSN")
     parser.add_argument("--steps", type=int, default=50_000, help="training steps for the peak RSS")
     parser.add_argument("--name", default=None)
+    parser.add_argument(
+        "--threads", type=int, default=None,
+        help="torch threads (default: torch's); fewer than the cores: a GSN trains in a worker process",
+    )  # fmt: skip
     args = parser.parse_args()
+    if args.threads is not None:
+        import torch as th
+
+        th.set_num_threads(args.threads)
 
     config = RunConfig.load(args.method, args.env)
     model = build_model(config)
@@ -52,12 +60,15 @@ def main() -> None:
     model.learn(args.steps, log_interval=0)
     seconds = time.perf_counter() - began
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # Linux: KiB
+    # the GSN's worker process (joined at the end of learn), if it ran: its own peak
+    worker_peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024
     results = {
         "buffer_configured": {"transitions": configured_n, "bytes": configured},
         "buffer_1m": {"transitions": big_n, "bytes": big, "bytes_per_transition": big / big_n},
         "training_steps": args.steps,
         "training_seconds": seconds,
         "peak_rss_bytes": peak,
+        "worker_peak_rss_bytes": worker_peak,
     }
     gib = 2**30
     rows = [
@@ -66,12 +77,16 @@ def main() -> None:
         f"| replay buffer, configured ({configured_n:,} transitions) | {configured / gib:.2f} GiB |",
         f"| replay buffer, {big_n:,} transitions | {big / gib:.2f} GiB ({big / big_n:,.0f} bytes each) |",
         f"| peak resident memory of the process after {args.steps:,} training steps | {peak / gib:.2f} GiB |",
+        f"| peak resident memory of the GSN's worker process (0: none ran) | {worker_peak / gib:.2f} GiB |",
     ]
     notes = (
         f"\n\n{args.method} on `{args.env}`, packaged configuration ({config.n_envs} games). A transition "
         "holds both agents' observation and next observation, actions, rewards and Monte-Carlo returns "
         "(float32). The buffer's pages are backed as they fill, so the peak RSS of a short run counts "
-        "only the part written so far; a full buffer adds its size."
+        "only the part written so far; a full buffer adds its size. The worker's resident set counts "
+        "the pages it shares with the trainer (the torch libraries, the networks); it lets go of its "
+        "inherited replay buffer at its start. Torch threads: "
+        f"{'default' if args.threads is None else args.threads}."
     )
     write_results(
         args.name or f"memory_{args.env.split('-')[0].lower()}_{args.method.lower()}",

@@ -25,6 +25,7 @@ from multiprocessing.connection import Connection
 from types import SimpleNamespace
 from typing import Any
 
+import numpy as np
 import torch as th
 
 __all__ = ["GSNWorker", "can_fork"]
@@ -70,9 +71,13 @@ def _worker_main(
     parent_end.close()
     th.set_num_threads(1)
     model = callback.model
-    # The replay buffer's arrays were inherited copy-on-write: let them go here, so that the
-    # trainer's writes into them do not duplicate the pages the worker no longer needs.
-    model.replay_buffer = None
+    # The replay buffer's arrays were inherited copy-on-write: let them go here (whoever else holds
+    # the buffer, e.g. SB3's callback locals), so that the trainer's writes into them do not
+    # duplicate the pages the worker does not need.
+    buffer = model.replay_buffer
+    for name, value in list(vars(buffer).items()) if buffer is not None else []:
+        if isinstance(value, np.ndarray):
+            setattr(buffer, name, None)
     gsn = model.policy.gsn
     try:
         while True:
