@@ -74,6 +74,11 @@ class GroundedSemanticNetwork(nn.Module):
         teammate's observation row), so that a reward the sender's own earlier message caused is
         explained by that input and not asked of the new message (GSN-MAX's option
         ``gsn_reward_hears``).
+    :param teammate_obs_dim: 0 (GSN, the paper), or the length of an observation row without its
+        received message: ``R`` also sees the teammate's own observation (``R(M(o_i), a_j, o_j)``,
+        without the message ``o_j`` heard), so that the message need only carry what the teammate
+        lacks to explain its reward (option ``gsn_reward_sees_teammate``). ``R`` is used in training
+        only; a message still depends on the sender's observation alone.
     :param maximising_head: GSN-MAX's head design: a second network ``H`` of the sender's
         observation (the shape of ``M``, its output layer zero, so that training starts as GSN) whose
         output is added to the grounded message, ``m = M(o) + H(o)``. ``M`` and ``R`` are trained by
@@ -99,9 +104,11 @@ class GroundedSemanticNetwork(nn.Module):
         normalize_rewards: bool = True,
         heard_dim: int = 0,
         maximising_head: bool = False,
+        teammate_obs_dim: int = 0,
     ) -> None:
         super().__init__()
         self.heard_dim = heard_dim
+        self.teammate_obs_dim = teammate_obs_dim
         if message_activation not in ("tanh", "linear"):
             raise ValueError(f"message_activation must be 'tanh' or 'linear', got {message_activation!r}")
         self.teammate_action_dim = teammate_action_dim
@@ -120,7 +127,7 @@ class GroundedSemanticNetwork(nn.Module):
         )
         self.reward_model = AgentMLPs(
             n_agents,
-            channel_size + teammate_action_dim + heard_dim,
+            channel_size + teammate_action_dim + heard_dim + teammate_obs_dim,
             1,
             reward_net_arch,
             activation_fn,
@@ -162,6 +169,8 @@ class GroundedSemanticNetwork(nn.Module):
         parts = [messages, teammate_actions[..., : self.teammate_action_dim]]
         if self.heard_dim:  # what each row's teammate heard: the end of the teammate's row
             parts.append(obs.flip(-2)[..., -self.heard_dim :])
+        if self.teammate_obs_dim:  # the teammate's own observation, without what it heard
+            parts.append(obs.flip(-2)[..., : self.teammate_obs_dim])
         features = th.cat(parts, dim=-1)
         return self.reward_model(features).squeeze(-1)
 

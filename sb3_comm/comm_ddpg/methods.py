@@ -55,6 +55,7 @@ class TeamPolicy(Protocol):
     gsn_message_activation: str
     gsn_normalize_rewards: bool
     gsn_reward_hears: bool
+    gsn_reward_sees_teammate: bool
 
     def actor_outputs(self, obs: th.Tensor, target: bool = False) -> th.Tensor: ...
 
@@ -258,6 +259,9 @@ class GSN(CommMethod):
             policy.gsn_normalize_rewards,
             heard_dim=layout.channel_size if policy.gsn_reward_hears else 0,
             maximising_head=getattr(policy, "gsn_maximising_head", False),
+            teammate_obs_dim=layout.obs_message_slice.start
+            if getattr(policy, "gsn_reward_sees_teammate", False)
+            else 0,
         )
 
     def messages(self, policy: TeamPolicy, obs: th.Tensor, out: th.Tensor) -> th.Tensor:

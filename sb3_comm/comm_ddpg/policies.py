@@ -52,6 +52,9 @@ class CommPolicy(HybridPolicy):
     :param gsn_normalize_rewards: standardise the GSN's regression targets (see the GSN).
     :param gsn_reward_hears: the GSN's reward model also sees the message the teammate heard
         (an option tried for GSN-MAX; off, as in the paper's GSN).
+    :param gsn_reward_sees_teammate: the GSN's reward model also sees the teammate's own
+        observation (without the message it heard): ``R(M(o_i), a_j, o_j)``, trained centrally; the
+        message still depends on the sender's observation alone (off, as in the paper's GSN).
     :param gsn_maximising_head: GSN-MAX only: send ``m = M(o) + H(o)``, where the head ``H`` alone
         follows the receiver critic's gradient and ``M`` the regression alone
         (:class:`~sb3_comm.comm_ddpg.methods.GSNMAX`, "head design"); off: one extractor ``M``
@@ -82,6 +85,7 @@ class CommPolicy(HybridPolicy):
         gsn_normalize_rewards: bool = True,
         gsn_reward_hears: bool = False,
         gsn_maximising_head: bool = False,
+        gsn_reward_sees_teammate: bool = False,
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
@@ -100,6 +104,7 @@ class CommPolicy(HybridPolicy):
         self.gsn_normalize_rewards = gsn_normalize_rewards
         self.gsn_reward_hears = bool(gsn_reward_hears)  # None in models saved with the first version
         self.gsn_maximising_head = bool(gsn_maximising_head)
+        self.gsn_reward_sees_teammate = bool(gsn_reward_sees_teammate)
         if self.gsn_maximising_head and name != "GSN-MAX":
             raise ValueError(
                 f"policy_kwargs gsn_maximising_head=True applies to GSN-MAX only (a head trained by the "
@@ -217,6 +222,7 @@ class CommPolicy(HybridPolicy):
             gsn_normalize_rewards=self.gsn_normalize_rewards,
             gsn_reward_hears=self.gsn_reward_hears,
             gsn_maximising_head=self.gsn_maximising_head,
+            gsn_reward_sees_teammate=self.gsn_reward_sees_teammate,
         )
         return data
 

@@ -290,6 +290,7 @@ POLICY_KWARGS: dict[str, Check] = {
     "share_parameters": Flag(),
     "gsn_normalize_rewards": Flag(),
     "gsn_maximising_head": Flag(),
+    "gsn_reward_sees_teammate": Flag(),
     "score_gradient": OneOf(SCORE_GRADIENTS),
     "critic_layer_norm": Flag(),
 }
