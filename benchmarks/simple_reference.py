@@ -35,6 +35,7 @@ import argparse
 import multiprocessing as mp
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -323,19 +324,17 @@ def main() -> None:
     if jobs and not args.summary_only:
         from sb3_comm.experiments.runner import start_worker
 
-        with mp.get_context("spawn").Pool(
+        # A fresh process per run (max_tasks_per_child=1). multiprocessing.Pool with
+        # maxtasksperchild hung at its exit twice, with terminate() and with close() + join().
+        with ProcessPoolExecutor(
             min(args.workers, len(jobs)),
+            mp_context=mp.get_context("spawn"),
             initializer=start_worker,
             initargs=(args.workers,),
-            maxtasksperchild=1,
+            max_tasks_per_child=1,
         ) as pool:
-            for _ in pool.imap_unordered(run_one, jobs):
-                pass
-            # Let the workers exit on their own: leaving the block terminates the pool, and
-            # terminating a pool with maxtasksperchild can deadlock on a worker that a
-            # replacement had just started (CPython's _help_stuff_finish waits on the queue's lock).
-            pool.close()
-            pool.join()
+            for future in as_completed([pool.submit(run_one, job) for job in jobs]):
+                future.result()  # a failed run stops the benchmark with its error
 
     import json
 
