@@ -6,6 +6,7 @@ command line) and ``benchmarks/results/<name>.md`` (a table for humans, same pro
 
 from __future__ import annotations
 
+import argparse
 import json
 import pathlib
 import shlex
@@ -14,9 +15,35 @@ from typing import Any
 
 from sb3_comm.results import RunResult, machine_info, write_json
 
-__all__ = ["RESULTS_DIR", "command_line", "finished_run", "machine_info", "write_results"]
+__all__ = [
+    "RESULTS_DIR",
+    "add_threads_option",
+    "apply_threads_option",
+    "command_line",
+    "finished_run",
+    "machine_info",
+    "write_results",
+]
 
 RESULTS_DIR = pathlib.Path(__file__).resolve().parent / "results"
+
+
+def add_threads_option(parser: argparse.ArgumentParser) -> None:
+    """``--threads``: torch's intra-op threads (default: torch's own choice)."""
+    parser.add_argument(
+        "--threads", type=int, default=None,
+        help="torch threads (default: torch's); fewer than the cores: a GSN trains in a worker process",
+    )  # fmt: skip
+
+
+def apply_threads_option(args: argparse.Namespace) -> int:
+    """Set torch's threads from ``args.threads`` where given; record and return the count in use."""
+    import torch as th
+
+    if args.threads is not None:
+        th.set_num_threads(args.threads)
+    args.threads = th.get_num_threads()
+    return args.threads
 
 
 def command_line() -> str:

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import write_results
+from _common import add_threads_option, apply_threads_option, write_results
 
 from sb3_comm.config import RunConfig
 from sb3_comm.training import build_model
@@ -40,15 +40,9 @@ def main() -> None:
     parser.add_argument("--method", default="GSN")
     parser.add_argument("--steps", type=int, default=50_000, help="training steps for the peak RSS")
     parser.add_argument("--name", default=None)
-    parser.add_argument(
-        "--threads", type=int, default=None,
-        help="torch threads (default: torch's); fewer than the cores: a GSN trains in a worker process",
-    )  # fmt: skip
+    add_threads_option(parser)
     args = parser.parse_args()
-    if args.threads is not None:
-        import torch as th
-
-        th.set_num_threads(args.threads)
+    apply_threads_option(args)
 
     config = RunConfig.load(args.method, args.env)
     model = build_model(config)
@@ -85,8 +79,7 @@ def main() -> None:
         "(float32). The buffer's pages are backed as they fill, so the peak RSS of a short run counts "
         "only the part written so far; a full buffer adds its size. The worker's resident set counts "
         "the pages it shares with the trainer (the torch libraries, the networks); it lets go of its "
-        "inherited replay buffer at its start. Torch threads: "
-        f"{'default' if args.threads is None else args.threads}."
+        f"inherited replay buffer at its start. Torch threads: {args.threads}."
     )
     write_results(
         args.name or f"memory_{args.env.split('-')[0].lower()}_{args.method.lower()}",

@@ -19,7 +19,7 @@ from pathlib import Path
 import torch as th
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import write_results
+from _common import add_threads_option, apply_threads_option, write_results
 
 from sb3_comm import METHODS, CommDDPG, make_comm_vec_env
 
@@ -44,13 +44,9 @@ def main() -> None:
     parser.add_argument("--n-envs", type=int, default=16)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--name", default="model_digest")
-    parser.add_argument(
-        "--threads", type=int, default=None,
-        help="torch threads (default: torch's); fewer than the cores: a GSN trains in a worker process",
-    )  # fmt: skip
+    add_threads_option(parser)
     args = parser.parse_args()
-    if args.threads is not None:
-        th.set_num_threads(args.threads)
+    apply_threads_option(args)
     digests = {}
     for method in args.methods:
         env = make_comm_vec_env(args.env, n_envs=args.n_envs, seed=args.seed)

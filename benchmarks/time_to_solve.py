@@ -29,10 +29,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import torch as th
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import finished_run, write_results
+from _common import add_threads_option, apply_threads_option, finished_run, write_results
 
 from envs.registry import task_ids
 from sb3_comm.analysis.references import REFERENCE_SEED, reference_returns
@@ -60,11 +58,9 @@ def main() -> None:
     parser.add_argument("--time-budget", type=float, default=900.0, help="wall-clock seconds per run")
     parser.add_argument("--save-dir", default="runs/time_to_solve")
     parser.add_argument("--name", default=None)
-    parser.add_argument("--threads", type=int, default=None, help="torch intra-op threads (default: torch's)")
+    add_threads_option(parser)
     args = parser.parse_args()
-    if args.threads is not None:
-        th.set_num_threads(args.threads)
-    args.threads = th.get_num_threads()
+    apply_threads_option(args)
 
     references = reference_returns(args.env, n_episodes=1000, seed=REFERENCE_SEED)
     assert references is not None
