@@ -259,9 +259,7 @@ class GSN(CommMethod):
             policy.gsn_normalize_rewards,
             heard_dim=layout.channel_size if policy.gsn_reward_hears else 0,
             maximising_head=getattr(policy, "gsn_maximising_head", False),
-            teammate_obs_dim=layout.obs_message_slice.start
-            if getattr(policy, "gsn_reward_sees_teammate", False)
-            else 0,
+            teammate_obs_dim=layout.obs_message_slice.start if policy.gsn_reward_sees_teammate else 0,
         )
 
     def messages(self, policy: TeamPolicy, obs: th.Tensor, out: th.Tensor) -> th.Tensor:
