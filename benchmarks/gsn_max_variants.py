@@ -2,6 +2,7 @@
 
 Reads the single-run results that ``benchmarks/solve.py --methods GSN-MAX ... --name
 gsn_max_variant_<variant>`` wrote (``benchmarks/results/gsn_max_variant_*.json``) and, with
+``--solves``, other ``solve.py`` results under a name of their own, and with
 ``--experiments``, the runs of experiment folders (``runs/<task>/GSN-MAX/<seed>/result.json``),
 and writes ``benchmarks/results/gsn_max_variants.{json,md}``: per run the design, the overrides,
 the budget, the periodic evaluations and the final return as a fraction of the oracle.
@@ -114,6 +115,12 @@ def main() -> None:
         help="NAME=RUN_DIR: a run of `sb3-comm train` (its result.json where it finished; its "
         "evaluations.json where it was stopped early; overrides from its config.yml)",
     )
+    parser.add_argument(
+        "--solves",
+        nargs="*",
+        default=[],
+        help="NAME=FILE: more results of `benchmarks/solve.py --methods GSN-MAX` (its JSON), under NAME",
+    )
     parser.add_argument("--name", default="gsn_max_variants")
     args = parser.parse_args()
 
@@ -127,9 +134,13 @@ def main() -> None:
         return oracles[task]
 
     rows = []
-    for path in sorted(RESULTS_DIR.glob("gsn_max_variant_*.json")):
+    solves = [
+        (path.stem.removeprefix("gsn_max_variant_"), path)
+        for path in sorted(RESULTS_DIR.glob("gsn_max_variant_*.json"))
+    ]
+    solves += [(label, Path(file)) for label, _, file in (item.partition("=") for item in args.solves)]
+    for variant, path in solves:
         data = json.loads(path.read_text())
-        variant = path.stem.removeprefix("gsn_max_variant_")
         for run in data["runs"]:
             rows.append(_row(variant, run, data["oracle_return"], data["args"]["params"]))
     for item in args.partial:

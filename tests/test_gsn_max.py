@@ -280,3 +280,42 @@ def test_the_reward_model_can_also_hear_what_the_teammate_heard(tmp_path) -> Non
     ).policy.gsn
     assert paper_gsn.heard_dim == 0
     assert paper_gsn.reward_model.nets[0][0].in_features == n + paper_gsn.teammate_action_dim
+
+
+def test_the_warmup_raises_the_maximising_share_linearly_and_is_saved(tmp_path) -> None:
+    """``gsn_max_warmup``: ``w`` rises from 0 to ``gsn_max_weight`` over that fraction of training;
+    its first update is then the grounding's alone, and the option is saved with the model."""
+    callback = GSNTrainingCallback(max_weight=0.4, max_warmup=0.25)
+    assert callback.current_max_weight(1.0) == 0.0
+    assert callback.current_max_weight(0.9) == pytest.approx(0.16)  # 10 % of training: 0.4 · 0.1/0.25
+    assert callback.current_max_weight(0.75) == pytest.approx(0.4)
+    assert callback.current_max_weight(0.1) == pytest.approx(0.4)
+    assert GSNTrainingCallback(max_weight=0.4).current_max_weight(1.0) == 0.4  # no warm-up
+
+    steps = {}
+    for signals, warmup in (("both", 0.5), ("grounding", 0.0)):
+        model = replay_filled_model(signals)
+        model._current_progress_remaining = 1.0  # the start of training: w = 0 with the warm-up
+        before = params(model.policy.gsn.message_extractor)
+        callback = GSNTrainingCallback(
+            model.gsn_learning_rate, 16, model.max_grad_norm,
+            max_weight=model.gsn_max_weight, signals=signals, max_warmup=warmup,
+        )  # fmt: skip
+        callback.init_callback(model)
+        np.random.seed(7)
+        callback.train_gsn(1)
+        after = params(model.policy.gsn.message_extractor)
+        steps[signals] = th.cat([(a - b).flatten() for a, b in zip(after, before, strict=True)])
+    th.testing.assert_close(steps["both"], steps["grounding"], rtol=1e-4, atol=1e-9)
+
+    model = replay_filled_model(gsn_max_warmup=0.3)
+    model.save(tmp_path / "warm.zip")
+    assert CommDDPG.load(tmp_path / "warm.zip", device="cpu").gsn_max_warmup == 0.3
+
+
+def test_a_bad_warmup_is_a_clear_error() -> None:
+    vec = make_vec_env(coin_env, n_envs=1)
+    with pytest.raises(ValueError, match=r"gsn_max_warmup must be a number in \[0, 1\), got 1.0"):
+        CommDDPG("GSN-MAX", vec, gsn_max_warmup=1.0)
+    with pytest.raises(ValueError, match="gsn_max_warmup applies to GSN-MAX only"):
+        CommDDPG("GSN", vec, gsn_max_warmup=0.2)

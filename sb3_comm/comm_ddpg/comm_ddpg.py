@@ -78,6 +78,9 @@ class CommDDPG(HybridDDPG):
     :param gsn_max_explore_messages: GSN-MAX only: explore messages like actions (with probability
         ε a uniformly random message is sent), so that the receiver's critic sees messages other
         than the current ones; False sends ``M(o)`` always, as GSN.
+    :param gsn_max_warmup: GSN-MAX only: the fraction of training over which the maximising share
+        rises linearly from 0 to ``gsn_max_weight`` (0: the full share from the start), so that the
+        receiver first learns to read grounded messages.
     :param buffer_size: replay size in joint transitions.
     :param learning_starts: transitions collected with full exploration before learning.
     :param batch_size: joint transitions per update (agents and GSN).
@@ -154,6 +157,7 @@ class CommDDPG(HybridDDPG):
         gsn_max_weight: float = 0.5,
         gsn_max_signals: str = "both",
         gsn_max_explore_messages: bool = True,
+        gsn_max_warmup: float = 0.0,
         buffer_size: int = 1_000_000,
         learning_starts: int = 1_000,
         batch_size: int = 64,
@@ -192,6 +196,7 @@ class CommDDPG(HybridDDPG):
                 "gsn_max_weight": gsn_max_weight,
                 "gsn_max_signals": gsn_max_signals,
                 "gsn_max_explore_messages": gsn_max_explore_messages,
+                "gsn_max_warmup": gsn_max_warmup,
                 "tcg_gain": tcg_gain,
                 "relabel_messages": relabel_messages,
                 "shared_reward": shared_reward,
@@ -203,6 +208,7 @@ class CommDDPG(HybridDDPG):
         self.gsn_max_weight = gsn_max_weight
         self.gsn_max_signals = gsn_max_signals
         self.gsn_max_explore_messages = gsn_max_explore_messages
+        self.gsn_max_warmup = gsn_max_warmup
         self.tcg_gain = tcg_gain
         self.relabel_messages = relabel_messages
         # SB3's load builds the model with _init_setup_model=False, then sets the saved attributes:
@@ -327,6 +333,11 @@ class CommDDPG(HybridDDPG):
                     f"gsn_max_explore_messages applies to GSN-MAX only; method {self.method} got "
                     f"gsn_max_explore_messages={self.gsn_max_explore_messages!r}: leave it at True"
                 )
+            if self.gsn_max_warmup != 0.0:
+                raise ValueError(
+                    f"gsn_max_warmup applies to GSN-MAX only; method {self.method} got "
+                    f"gsn_max_warmup={self.gsn_max_warmup!r}: leave it at 0"
+                )
         self.gsn = self.policy.gsn
         if self.gsn is not None and self.gsn.maximising_head is not None and self.gsn_max_weight != 0.5:
             raise ValueError(
@@ -401,6 +412,7 @@ class CommDDPG(HybridDDPG):
                 self.batch_size,
                 self.max_grad_norm,
                 max_weight=self.gsn_max_weight,
+                max_warmup=getattr(self, "gsn_max_warmup", 0.0),  # models saved before the option
                 signals=self.gsn_max_signals,
                 head_learning_rate=self.actor_learning_rate,
             )

@@ -240,6 +240,8 @@ class GSNTrainingCallback(BaseCallback):
     :param batch_size: joint tuples per update.
     :param max_grad_norm: gradient clipping (0 or None: none).
     :param max_weight: GSN-MAX's weight ``w`` of the maximising signal (other methods: unused).
+    :param max_warmup: GSN-MAX's warm-up: the fraction of training over which the maximising share
+        rises linearly from 0 to ``max_weight`` (0: ``max_weight`` from the start).
     :param signals: GSN-MAX's signals, one of ``GSN_MAX_SIGNALS`` (``"both"``, ``"grounding"``,
         ``"maximising"``); GSN always uses only the grounding.
     :param beside_agents: run GSN updates in a second process beside the agents' (None: where
@@ -260,12 +262,14 @@ class GSNTrainingCallback(BaseCallback):
         beside_agents: bool | None = None,
         verbose: int = 0,
         head_learning_rate: float | Schedule = 1e-4,
+        max_warmup: float = 0.0,
     ) -> None:
         super().__init__(verbose)
         self.learning_rate = learning_rate
         self.lr_schedule = FloatSchedule(learning_rate)
         self.head_lr_schedule = FloatSchedule(head_learning_rate)
         self.max_weight = max_weight
+        self.max_warmup = max_warmup
         self.batch_size = batch_size
         self.max_grad_norm = max_grad_norm
         self.signals = signals
@@ -277,6 +281,7 @@ class GSNTrainingCallback(BaseCallback):
         self._worker: GSNWorker | None = None
         self._submitted = 0
         self._deferred: Callable[[], list[tuple[str, Any, int]]] | None = None
+        self._weight_now = max_weight
 
     def _init_callback(self) -> None:
         # Agent updates made before this callback joined (an earlier learn() call, a loaded
@@ -372,11 +377,25 @@ class GSNTrainingCallback(BaseCallback):
         for group in gsn.optimizer.param_groups:  # type: ignore[union-attr]
             group["lr"] = lr
         self.model.train_log.add("gsn/learning_rate", lr)  # type: ignore[attr-defined]
+        if getattr(gsn, "maximising_head", None) is None and self.signals == "both":
+            self._weight_now = self.current_max_weight(self.model.progress_remaining)  # type: ignore[attr-defined]
+            self.model.train_log.add("gsn/maximising_weight", self._weight_now)  # type: ignore[attr-defined]
         if gsn.head_optimizer is not None:
             head_lr = self.head_lr_schedule(self.model.progress_remaining)  # type: ignore[attr-defined]
             for group in gsn.head_optimizer.param_groups:
                 group["lr"] = head_lr
         return [replay_buffer.sample(self.batch_size) for _ in range(n_updates)]
+
+    def current_max_weight(self, progress_remaining: float) -> float:
+        """GSN-MAX's maximising share ``w`` at this point of training: ``max_weight``, reached
+        linearly over the first ``max_warmup`` of training.
+
+        :param progress_remaining: SB3's remaining progress (1 at the start, 0 at the end).
+        """
+        progress = 1.0 - progress_remaining
+        if self.max_warmup <= 0.0 or progress >= self.max_warmup:
+            return self.max_weight
+        return self.max_weight * max(progress, 0.0) / self.max_warmup
 
     def _record(self, values: list[tuple[str, Any, int]]) -> None:
         log = self.model.train_log  # type: ignore[attr-defined]
@@ -408,7 +427,7 @@ class GSNTrainingCallback(BaseCallback):
                 *reward_grads, grounding = th.autograd.grad(loss, [*reward_model, sent])
                 gradient, stats = mixing(
                     policy, sent.detach(), grounding, data.next_observations, data.dones,
-                    self.max_weight, self.signals,
+                    self._weight_now, self.signals,
                 )  # fmt: skip
                 extractor_grads = th.autograd.grad(messages, extractor, grad_outputs=gradient)
                 trained = [*reward_model, *extractor]

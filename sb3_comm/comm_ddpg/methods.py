@@ -294,6 +294,8 @@ class GSNMAX(GSN):
     so a signal that is mostly noise (the receiver's critic early on) averages out in Adam's
     momentum instead of being amplified to full steps, as it is with one optimizer per signal.
     ``gsn_max_signals="grounding"`` or ``"maximising"`` uses one signal alone (the ablations).
+    ``gsn_max_warmup`` (a fraction of training, default 0) raises ``w`` linearly from 0 over that
+    share of training, so that the grounding acts alone first (tried, not packaged: README).
 
     Tried and left as an option: ``policy_kwargs`` ``gsn_reward_hears=True`` also gives ``R`` the
     message the teammate heard (the sender's previous one), so that a reward caused by that
