@@ -48,7 +48,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
 
     th.set_num_threads(1)
     env_id, method, seed = job["env"], job["method"], job["seed"]
-    config = RunConfig.load(method, env_id, seed=seed, overrides=job["overrides"])
+    config = RunConfig.load(method, env_id, seed=seed, path=job.get("conf"), overrides=job["overrides"])
     run_dir = Path(job["save_dir"]) / f"{env_id}_{method}_seed{seed}"
     settings = run_dir / "solve_job.json"
     earlier = finished_run(run_dir, job, settings.name)  # resumable: read a run an earlier call finished
@@ -88,6 +88,12 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--params", nargs="*", default=[], help="hyperparameter overrides key=value")
     parser.add_argument(
+        "--conf",
+        default=None,
+        help="a hyperparameter file in rl-zoo3 format (default: the packaged zoo_configs/<method>.yml); "
+        "an entry without a `policy` key serves every method",
+    )
+    parser.add_argument(
         "--save-freq", type=int, default=0, help="a checkpoint every this many steps (0: none)"
     )
     parser.add_argument("--save-dir", default="runs/benchmarks", help="where the run folders go")
@@ -112,6 +118,7 @@ def main() -> None:
             "overrides": overrides,
             "save_dir": args.save_dir,
             **({"save_freq": args.save_freq} if args.save_freq else {}),
+            **({"conf": str(Path(args.conf).resolve())} if args.conf else {}),
         }
         for method in args.methods
         for seed in args.seeds
