@@ -86,11 +86,19 @@ def main() -> None:
     parser.add_argument("solve_json", help="a results file of benchmarks/solve.py")
     parser.add_argument("--reach", type=float, default=0.9)
     parser.add_argument("--floor", type=float, default=0.8)
+    parser.add_argument("--method", default=None, help="judge this method's runs only (default: all)")
     parser.add_argument("--name", default=None)
     args = parser.parse_args()
     data = json.loads(Path(args.solve_json).read_text())
     oracle = data["oracle_return"]
     runs = sorted(data["runs"], key=lambda r: r["seed"])
+    present = sorted({run["method"] for run in runs})
+    if args.method is not None:
+        runs = [run for run in runs if run["method"] == args.method.upper()]
+        if not runs:
+            raise SystemExit(f"{args.solve_json} has no run of method {args.method!r}; it has {present}")
+    elif len(present) > 1:
+        raise SystemExit(f"{args.solve_json} holds runs of {present}: pick one with --method")
     paired = paired_oracles(data["env"], runs)
     judged = {
         "oracle": [seed_row(run, oracle, args.reach, args.floor) for run in runs],
