@@ -9,7 +9,9 @@
     sb3-comm reproduce                                             # the paper's runs, then the report
     sb3-comm report runs/experiments/paper                         # the report of an experiment folder
 
-``train`` reads the packaged hyperparameters of the method (``zoo_configs/<method>.yml``), trains
+``train`` reads the packaged hyperparameters of the method (``zoo_configs/<method>.yml``; for a
+registered two-agent task that no packaged file configures, such as ``MPESimpleReference-v0``, the
+constructor's defaults with 8 games and 300,000 steps, and it says so), trains
 with a progress bar, evaluates periodically, and writes TensorBoard logs, the learning curve, the
 model and the run's record (``result.json``) into a fresh run folder (an existing folder is never
 overwritten); it is a thin caller of :func:`sb3_comm.training.train_run`. Ctrl-C or SIGTERM saves a
@@ -121,6 +123,36 @@ def _check_env_id(env_id: str) -> str:
     if env_id not in gym.registry:
         raise ValueError(f"Unknown environment {env_id!r}: not a registered id; the tasks: {list(TASK_IDS)}")
     return env_id
+
+
+def _packaged(method: str, env_id: str) -> bool:
+    """Whether the packaged file of ``method`` has an entry for ``env_id``."""
+    from sb3_comm.config import config_path, read_entry
+
+    try:
+        read_entry(config_path(method), env_id)
+    except ValueError:
+        return False
+    return True
+
+
+def _check_two_agent_task(env_id: str) -> None:
+    """A registered id that builds a two-agent task (a single-agent HFO task does not)."""
+    from sb3_comm import make_comm_vec_env
+
+    try:
+        env = make_comm_vec_env(env_id, n_envs=1, seed=0)
+    except Exception as error:
+        raise ValueError(f"{env_id!r} could not be built ({type(error).__name__}: {error})") from None
+    try:
+        env.get_attr("comm_layout")
+    except AttributeError:
+        raise ValueError(
+            f"{env_id!r} is not a two-agent task that CommDDPG can train (its environment has no "
+            "'comm_layout'); for a single-agent HFO task use HybridDDPG (see the README)"
+        ) from None
+    finally:
+        env.close()
 
 
 def _model_file(path_text: str) -> Path:
@@ -255,7 +287,17 @@ def _new_run(args: argparse.Namespace) -> tuple[Any, Path]:
         overrides["n_timesteps"] = args.timesteps
     seed = 0 if args.seed is None else args.seed
     # Checked in full (every value, RunConfig) before the run folder exists.
-    config = RunConfig.load(args.method, args.env, seed=seed, path=args.conf, overrides=overrides)
+    env_id = _check_env_id(args.env)
+    if args.conf is None and not _packaged(args.method, env_id):
+        _check_two_agent_task(env_id)
+        config = RunConfig.constructor_defaults(args.method, env_id, seed=seed).with_overrides(overrides)
+        print(
+            f"No packaged configuration of {config.method} for {env_id}: CommDDPG's constructor defaults, "
+            f"{config.n_envs} games, {config.n_timesteps} steps (--params, --n-envs, --timesteps or "
+            "--conf to change them)"
+        )
+    else:
+        config = RunConfig.load(args.method, env_id, seed=seed, path=args.conf, overrides=overrides)
     run_name = f"{config.method}_seed{config.seed}"
     run_dir = _fresh_dir(Path(args.log_folder) / args.env / run_name, "--log-folder")
     print(
@@ -433,7 +475,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     train = sub.add_parser("train", help="train a method on a task with the packaged configuration")
-    train.add_argument("--env", choices=sorted(TASK_IDS), help="task id (required unless --resume)")
+    train.add_argument(
+        "--env",
+        help=f"task id (required unless --resume): {', '.join(sorted(TASK_IDS))} (packaged configurations), "
+        "or any registered two-agent task, which trains with the constructor's defaults",
+    )
     train.add_argument(
         "--method", type=str.upper, choices=METHODS, help="communication method (required unless --resume)"
     )

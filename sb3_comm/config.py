@@ -53,6 +53,10 @@ ZOO_KEYS = ("policy", "n_envs", "n_timesteps")
 
 DEFAULT_N_ENVS = 1
 DEFAULT_N_TIMESTEPS = 100_000
+UNCONFIGURED_N_ENVS = 8
+"""Games of a run on a task no packaged file configures (:meth:`RunConfig.constructor_defaults`)."""
+UNCONFIGURED_N_TIMESTEPS = 300_000
+"""Budget of a run on a task no packaged file configures."""
 
 
 def _methods() -> tuple[str, ...]:
@@ -210,6 +214,19 @@ class RunConfig:
         file = Path(path) if path is not None else config_path(method)
         config = cls.from_entry(read_entry(file, task), method, task, seed=seed, source=str(file))
         return config.with_overrides(overrides or {})
+
+    @classmethod
+    def constructor_defaults(cls, method: str, task: str, seed: int = 0) -> RunConfig:
+        """``CommDDPG(method, env)`` with nothing set, for a task that no packaged file configures:
+        :data:`UNCONFIGURED_N_ENVS` games and :data:`UNCONFIGURED_N_TIMESTEPS` steps (the foreign
+        benchmark's), every hyperparameter the constructor's default.
+
+        :param method: communication method.
+        :param task: environment id.
+        :param seed: training seed.
+        """
+        entry = {"n_envs": UNCONFIGURED_N_ENVS, "n_timesteps": UNCONFIGURED_N_TIMESTEPS}
+        return cls.from_entry(entry, method, task, seed=seed, source="the constructor's defaults")
 
     def with_overrides(self, overrides: Mapping[str, Any], seed: int | None = None) -> RunConfig:
         """A copy with some settings replaced, checked like a file's entry.

@@ -375,7 +375,8 @@ def _finish_tensorboard(
     hparams = {"method": config.method, "task": config.task, "seed": config.seed, **result.hyperparams}
     try:
         record_hparams(model.logger, hparams, metrics, int(model.num_timesteps))
-        if settings.projector_episodes > 0 and model.comm_layout.channel_size:
+        # the projector labels messages with the receiver's action type: hybrid actions only
+        if settings.projector_episodes > 0 and model.comm_layout.channel_size and model.comm_layout.hybrid:
             write_projector(
                 model,
                 config.task,

@@ -170,3 +170,38 @@ def test_gsn_learning_rate_schedule_is_applied() -> None:
     trained = [lr for lr in seen if lr < 1e-3]  # after the first GSN updates
     assert trained and all(a >= b for a, b in itertools.pairwise(trained))
     assert trained[-1] == pytest.approx(1e-3 * (1 - 198 / 200), abs=2e-5)
+
+
+def test_cli_trains_a_registered_task_without_packaged_configuration_with_the_defaults(
+    tmp_path, capsys
+) -> None:
+    """A registered two-agent task that no packaged file configures trains with the constructor's
+    defaults (and says so); its config.yml holds no hyperparameter the user did not set."""
+    args = [
+        "train", "--env", "MPESimpleReference-v0", "--method", "GSN", "--timesteps", "160", "--n-envs", "2",
+        "-f", str(tmp_path), "--eval-freq", "80", "--eval-episodes", "2", "--no-progress-bar",
+        "-params", "learning_starts=50",
+    ]  # fmt: skip
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "No packaged configuration of GSN for MPESimpleReference-v0: CommDDPG's constructor" in out
+    run = tmp_path / "MPESimpleReference-v0" / "GSN_seed0"
+    assert (run / "model.zip").is_file()
+    entry = RunConfig.load("GSN", "MPESimpleReference-v0", path=run / "config.yml")
+    assert (entry.n_envs, entry.n_timesteps, entry.hyperparams) == (2, 160, {"learning_starts": 50})
+    assert len(json.loads((run / "evaluations.json").read_text())) == 2
+
+
+@pytest.mark.parametrize(
+    ("env_id", "message"),
+    [
+        ("NoSuchTask-v0", "Unknown environment 'NoSuchTask-v0': not a registered id"),
+        ("HFOScoreEmptyGoal-v0", "is not a two-agent task that CommDDPG can train"),
+    ],
+)
+def test_cli_train_refuses_an_unknown_or_single_agent_task(
+    tmp_path, capsys, env_id: str, message: str
+) -> None:
+    assert main(["train", "--env", env_id, "--method", "GSN", "-f", str(tmp_path)]) == 2
+    assert message in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
