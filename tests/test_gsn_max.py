@@ -319,3 +319,19 @@ def test_a_bad_warmup_is_a_clear_error() -> None:
         CommDDPG("GSN-MAX", vec, gsn_max_warmup=1.0)
     with pytest.raises(ValueError, match="gsn_max_warmup applies to GSN-MAX only"):
         CommDDPG("GSN", vec, gsn_max_warmup=0.2)
+
+
+def test_the_maximising_share_is_logged_for_gsn_maxs_mix_only() -> None:
+    """``gsn/maximising_weight`` is GSN-MAX's (both signals); GSN has no share to log."""
+    logged = {}
+    for method in ("GSN-MAX", "GSN"):
+        vec = make_vec_env(coin_env, n_envs=2, seed=0)
+        model = CommDDPG(
+            method, vec, batch_size=16, learning_starts=20, share_parameters=False, seed=0, device="cpu",
+            policy_kwargs={"net_arch": [32, 32], "gsn_net_arch": [16], "gsn_reward_net_arch": [16]},
+            **({"gsn_max_weight": WEIGHT} if method == "GSN-MAX" else {}),
+        )  # fmt: skip
+        model.learn(60)
+        logged[method] = model.train_log.pop_means()
+    assert logged["GSN-MAX"]["gsn/maximising_weight"] == pytest.approx(WEIGHT)
+    assert "gsn/maximising_weight" not in logged["GSN"] and "gsn/loss" in logged["GSN"]

@@ -377,7 +377,8 @@ class GSNTrainingCallback(BaseCallback):
         for group in gsn.optimizer.param_groups:  # type: ignore[union-attr]
             group["lr"] = lr
         self.model.train_log.add("gsn/learning_rate", lr)  # type: ignore[attr-defined]
-        if getattr(gsn, "maximising_head", None) is None and self.signals == "both":
+        mixes = getattr(self.model.policy.comm_method, "message_gradient", None) is not None  # GSN-MAX
+        if mixes and gsn.maximising_head is None and self.signals == "both":  # the mix's share w
             self._weight_now = self.current_max_weight(self.model.progress_remaining)  # type: ignore[attr-defined]
             self.model.train_log.add("gsn/maximising_weight", self._weight_now)  # type: ignore[attr-defined]
         if gsn.head_optimizer is not None:
