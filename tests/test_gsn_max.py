@@ -335,3 +335,58 @@ def test_the_maximising_share_is_logged_for_gsn_maxs_mix_only() -> None:
         logged[method] = model.train_log.pop_means()
     assert logged["GSN-MAX"]["gsn/maximising_weight"] == pytest.approx(WEIGHT)
     assert "gsn/maximising_weight" not in logged["GSN"] and "gsn/loss" in logged["GSN"]
+
+
+def test_the_centred_mix_removes_the_maximising_signals_batch_mean() -> None:
+    """``gsn_max_centred``: the maximising signal less its mean over the batch's non-terminal rows
+    (per sender and entry), divided by the uncentred signal's RMS; a signal that is the same in
+    every state then adds nothing, and the share of the state-dependent part is logged."""
+    model = replay_filled_model()
+    policy = model.policy
+    data = sample(model)
+    messages = policy.gsn.message(data.observations).detach()
+    grounding = 1e-3 * th.randn_like(messages)
+    args = (policy, messages, grounding, data.next_observations, data.dones)
+    d_m = -receiver_gradient_by_hand(model, data, messages) / len(messages)
+    live = 1 - data.dones[:, 0]
+    assert live.sum() > 0
+    mean = (d_m * live[:, None, None]).sum(0) / live.sum()
+    centred = (d_m - mean) * live[:, None, None]
+    rms = lambda x: x.pow(2).mean().sqrt()  # noqa: E731
+    d, stats = policy.comm_method.message_gradient(*args, weight=WEIGHT, centred=True)
+    mix = rms(grounding) * ((1 - WEIGHT) * grounding / rms(grounding) + WEIGHT * centred / rms(d_m))
+    th.testing.assert_close(d, -inverted(-mix, messages))
+    th.testing.assert_close(stats["gsn/maximising_state_share"], rms(centred) / rms(d_m))
+    assert not th.allclose(d, policy.comm_method.message_gradient(*args, weight=WEIGHT)[0])
+
+    # a critic whose message gradient is the same in every state: only the grounding moves messages
+    from sb3_comm.comm_ddpg import methods
+
+    same = th.tensor([[0.3, -0.2]]).expand(len(messages), 2).reshape(len(messages), 2, 1)
+    same = same.expand_as(messages).clone()
+    original = methods.GSNMAX._maximising
+    methods.GSNMAX._maximising = staticmethod(lambda *a: same)  # type: ignore[method-assign]
+    try:
+        no_dones = th.zeros_like(data.dones)
+        d, stats = policy.comm_method.message_gradient(
+            policy, messages, grounding, data.next_observations, no_dones, weight=WEIGHT, centred=True
+        )
+    finally:
+        methods.GSNMAX._maximising = original  # type: ignore[method-assign]
+    th.testing.assert_close(d, -inverted(-(1 - WEIGHT) * grounding, messages))
+    assert float(stats["gsn/maximising_state_share"]) == pytest.approx(0.0, abs=1e-6)
+
+
+def test_centring_is_gsn_max_only_saved_and_checked(tmp_path) -> None:
+    vec = make_vec_env(coin_env, n_envs=1)
+    with pytest.raises(ValueError, match="gsn_max_centred applies to GSN-MAX only"):
+        CommDDPG("GSN", vec, gsn_max_centred=True)
+    with pytest.raises(TypeError, match="gsn_max_centred must be True or False, got 'yes'"):
+        CommDDPG("GSN-MAX", vec, gsn_max_centred="yes")
+    with pytest.raises(ValueError, match="gsn_max_centred centres the maximising signal"):
+        CommDDPG("GSN-MAX", vec, gsn_max_centred=True, policy_kwargs={"gsn_maximising_head": True})
+    model = replay_filled_model(gsn_max_centred=True)
+    callback = model._init_callback(None)
+    assert model.gsn_callback.centred is True and callback is not None
+    model.save(tmp_path / "centred.zip")
+    assert CommDDPG.load(tmp_path / "centred.zip", device="cpu").gsn_max_centred is True

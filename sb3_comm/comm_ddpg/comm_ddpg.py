@@ -81,6 +81,10 @@ class CommDDPG(HybridDDPG):
     :param gsn_max_warmup: GSN-MAX only: the fraction of training over which the maximising share
         rises linearly from 0 to ``gsn_max_weight`` (0: the full share from the start), so that the
         receiver first learns to read grounded messages.
+    :param gsn_max_centred: GSN-MAX only: subtract from the maximising signal its mean over the
+        batch (per sender and message entry) before the mix, keeping its scale: only the part that
+        differs between states moves the messages, so a critic that does not read the messages yet
+        (whose gradient pushes every message the same way) adds next to nothing.
     :param buffer_size: replay size in joint transitions.
     :param learning_starts: transitions collected with full exploration before learning.
     :param batch_size: joint transitions per update (agents and GSN).
@@ -158,6 +162,7 @@ class CommDDPG(HybridDDPG):
         gsn_max_signals: str = "both",
         gsn_max_explore_messages: bool = True,
         gsn_max_warmup: float = 0.0,
+        gsn_max_centred: bool = False,
         buffer_size: int = 1_000_000,
         learning_starts: int = 1_000,
         batch_size: int = 64,
@@ -197,6 +202,7 @@ class CommDDPG(HybridDDPG):
                 "gsn_max_signals": gsn_max_signals,
                 "gsn_max_explore_messages": gsn_max_explore_messages,
                 "gsn_max_warmup": gsn_max_warmup,
+                "gsn_max_centred": gsn_max_centred,
                 "tcg_gain": tcg_gain,
                 "relabel_messages": relabel_messages,
                 "shared_reward": shared_reward,
@@ -209,6 +215,7 @@ class CommDDPG(HybridDDPG):
         self.gsn_max_signals = gsn_max_signals
         self.gsn_max_explore_messages = gsn_max_explore_messages
         self.gsn_max_warmup = gsn_max_warmup
+        self.gsn_max_centred = gsn_max_centred
         self.tcg_gain = tcg_gain
         self.relabel_messages = relabel_messages
         # SB3's load builds the model with _init_setup_model=False, then sets the saved attributes:
@@ -338,12 +345,24 @@ class CommDDPG(HybridDDPG):
                     f"gsn_max_warmup applies to GSN-MAX only; method {self.method} got "
                     f"gsn_max_warmup={self.gsn_max_warmup!r}: leave it at 0"
                 )
+            if getattr(self, "gsn_max_centred", False) is not False:
+                raise ValueError(
+                    f"gsn_max_centred applies to GSN-MAX only; method {self.method} got "
+                    f"gsn_max_centred={self.gsn_max_centred!r}: leave it at False"
+                )
         self.gsn = self.policy.gsn
         if self.gsn is not None and self.gsn.maximising_head is not None and self.gsn_max_weight != 0.5:
             raise ValueError(
                 f"gsn_max_weight mixes the two signals of GSN-MAX's one-extractor design; with "
                 f"policy_kwargs gsn_maximising_head=True each signal trains its own network, so there is "
                 f"nothing to weigh: leave gsn_max_weight at 0.5 (got {self.gsn_max_weight!r})"
+            )
+        head = self.gsn is not None and self.gsn.maximising_head is not None
+        if head and getattr(self, "gsn_max_centred", False):
+            raise ValueError(
+                "gsn_max_centred centres the maximising signal of GSN-MAX's one-extractor mix; with "
+                "policy_kwargs gsn_maximising_head=True the head is trained by the signal alone: leave "
+                "gsn_max_centred at False"
             )
         self._attach_relabeler()
         self._agent_returns: deque[np.ndarray] = deque(maxlen=self._stats_window_size)
@@ -414,6 +433,7 @@ class CommDDPG(HybridDDPG):
                 max_weight=self.gsn_max_weight,
                 max_warmup=getattr(self, "gsn_max_warmup", 0.0),  # models saved before the option
                 signals=self.gsn_max_signals,
+                centred=getattr(self, "gsn_max_centred", False),  # models saved before the option
                 head_learning_rate=self.actor_learning_rate,
             )
             callback = CallbackList([self.gsn_callback, callback])

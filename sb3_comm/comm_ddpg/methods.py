@@ -296,6 +296,8 @@ class GSNMAX(GSN):
     ``gsn_max_signals="grounding"`` or ``"maximising"`` uses one signal alone (the ablations).
     ``gsn_max_warmup`` (a fraction of training, default 0) raises ``w`` linearly from 0 over that
     share of training, so that the grounding acts alone first (tried, not packaged: README).
+    ``gsn_max_centred`` replaces ``d_m`` by ``d_m − mean_B d_m`` (still divided by ``rms(d_m)``), so
+    that a slope that is the same in every state moves no message (tried, not packaged: README).
 
     Tried and left as an option: ``policy_kwargs`` ``gsn_reward_hears=True`` also gives ``R`` the
     message the teammate heard (the sender's previous one), so that a reward caused by that
@@ -334,6 +336,7 @@ class GSNMAX(GSN):
         dones: th.Tensor,
         weight: float = 0.5,
         signals: str = "both",
+        centred: bool = False,
     ) -> tuple[th.Tensor, dict[str, th.Tensor]]:
         """The gradient ``d`` that trains the message extractor, at the messages.
 
@@ -344,6 +347,10 @@ class GSNMAX(GSN):
         :param dones: ``(B, 1)`` terminal flags.
         :param weight: ``w``, the maximising share when ``signals`` is ``"both"``.
         :param signals: ``"both"``, ``"grounding"`` (``d = d_g``) or ``"maximising"`` (``d = d_m``).
+        :param centred: replace ``d_m`` by ``d_m − mean_B d_m`` (the mean over the batch's
+            non-terminal transitions, per sender and message entry), still divided by the RMS of
+            the uncentred ``d_m`` in the mix: the part of the signal that is the same in every
+            state, which a critic that does not read the messages yet gives, moves no message.
         :return: ``d`` ``(B, 2, n)`` and the root-mean-squares of the signals used, for the log.
         """
         sent = messages.detach()
@@ -354,6 +361,12 @@ class GSNMAX(GSN):
         maximising = GSNMAX._maximising(policy, sent, next_obs, dones)
         rms_m = maximising.pow(2).mean().sqrt()
         stats["gsn/maximising_grad_rms"] = rms_m
+        if centred:
+            live = (1.0 - dones).reshape(-1, 1, 1)  # terminal rows have no maximising signal
+            mean = (maximising * live).sum(dim=0, keepdim=True) / live.sum().clamp_min(1.0)
+            maximising = (maximising - mean) * live
+            tiny = th.finfo(sent.dtype).tiny
+            stats["gsn/maximising_state_share"] = maximising.pow(2).mean().sqrt() / rms_m.clamp_min(tiny)
         if signals == "maximising":
             mixed = maximising
         else:

@@ -322,6 +322,7 @@ HYPERPARAMETERS: dict[str, Check] = {
     "gsn_max_signals": OneOf(GSN_MAX_SIGNALS),
     "gsn_max_explore_messages": Flag(),
     "gsn_max_warmup": Range(0.0, 1.0, high_open=True),
+    "gsn_max_centred": Flag(),
     "buffer_size": SIZE,
     "learning_starts": Range(0, whole=True),
     "batch_size": SIZE,
