@@ -1,7 +1,8 @@
 """Time to solve: wall-clock training seconds (and steps) until a method first reaches
 ``--target-fraction`` × the oracle's return, seed after seed, one run at a time.
 
-Each run trains with the packaged configuration (``zoo_configs/``) through
+Each run trains with the packaged configuration (``zoo_configs/``; ``--params key=value`` overrides
+its settings, as in ``solve.py``) through
 :func:`sb3_comm.training.train_run`, evaluates the deterministic team on 100 games every
 ``--eval-freq`` steps (evaluation time is not training time), and stops at the first evaluation
 that reaches the target, or after ``--time-budget`` seconds of wall-clock or the configuration's
@@ -58,10 +59,16 @@ def main() -> None:
     parser.add_argument("--time-budget", type=float, default=900.0, help="wall-clock seconds per run")
     parser.add_argument("--save-dir", default="runs/time_to_solve")
     parser.add_argument("--name", default=None)
+    parser.add_argument(
+        "--params", nargs="*", default=[], help="hyperparameter overrides key=value (as solve.py's)"
+    )
     add_threads_option(parser)
     args = parser.parse_args()
     apply_threads_option(args)
 
+    from sb3_comm.cli import parse_overrides
+
+    overrides = parse_overrides(args.params)
     references = reference_returns(args.env, n_episodes=1000, seed=REFERENCE_SEED)
     assert references is not None
     target = args.target_fraction * references["oracle"]
@@ -70,13 +77,14 @@ def main() -> None:
     paired_oracles: dict[int, float] = {}
     for seed in args.seeds:
         load_before: float | None = os.getloadavg()[0]
-        config = RunConfig.load(args.method, args.env, seed=seed)
+        config = RunConfig.load(args.method, args.env, seed=seed, overrides=overrides)
         settings = EvalSettings(
             freq=args.eval_freq, target_return=target, stop_at_target=True, projector_episodes=0
         )
         run_dir = Path(args.save_dir) / f"{args.env}_{args.method}_seed{seed}"
         job = {"env": args.env, "method": args.method, "seed": seed, "eval_freq": args.eval_freq,
-               "time_budget": args.time_budget, "target": target, "threads": args.threads}  # fmt: skip
+               "time_budget": args.time_budget, "target": target, "threads": args.threads,
+               **({"overrides": args.params} if args.params else {})}  # fmt: skip
         result = finished_run(run_dir, job, "tts_job.json")
         if result is None:
             run_dir.mkdir(parents=True, exist_ok=True)
@@ -138,7 +146,8 @@ def main() -> None:
             f"| {r['train_seconds']:.0f} | {r['final_return']:.4f} | {load} |"
         )
     notes = (
-        f"\n\n{args.method} on `{args.env}`, packaged configuration; target {args.target_fraction} × oracle "
+        f"\n\n{args.method} on `{args.env}`, packaged configuration"
+        f"{' with ' + ', '.join(args.params) if args.params else ''}; target {args.target_fraction} × oracle "
         f"{references['oracle']:.4f} = {target:.4f} on the mean return of 100 evaluation games every "
         f"{args.eval_freq:,} steps; a run stops there, or after {args.time_budget:.0f} s of wall-clock. "
         f"Median seconds to target over the {len(runs)} seeds (an unsolved seed counts as never): "
