@@ -383,10 +383,39 @@ def test_centring_is_gsn_max_only_saved_and_checked(tmp_path) -> None:
         CommDDPG("GSN", vec, gsn_max_centred=True)
     with pytest.raises(TypeError, match="gsn_max_centred must be True or False, got 'yes'"):
         CommDDPG("GSN-MAX", vec, gsn_max_centred="yes")
-    with pytest.raises(ValueError, match="gsn_max_centred centres the maximising signal"):
+    with pytest.raises(ValueError, match="gsn_max_centred and gsn_max_gain shape the maximising signal"):
         CommDDPG("GSN-MAX", vec, gsn_max_centred=True, policy_kwargs={"gsn_maximising_head": True})
     model = replay_filled_model(gsn_max_centred=True)
     callback = model._init_callback(None)
     assert model.gsn_callback.centred is True and callback is not None
     model.save(tmp_path / "centred.zip")
     assert CommDDPG.load(tmp_path / "centred.zip", device="cpu").gsn_max_centred is True
+
+
+def test_the_raw_mix_keeps_each_signals_size() -> None:
+    """``gsn_max_gain=κ``: ``d = (1 − w)·d_g + w·κ·d_m`` with neither signal rescaled, so a tiny
+    maximising signal stays tiny (the unit-RMS mix would blow it up to the grounding's size)."""
+    model = replay_filled_model()
+    policy = model.policy
+    data = sample(model)
+    messages = policy.gsn.message(data.observations).detach()
+    grounding = 1e-3 * th.randn_like(messages)
+    args = (policy, messages, grounding, data.next_observations, data.dones)
+    d_m = -receiver_gradient_by_hand(model, data, messages) / len(messages)
+    for gain in (0.5, 20.0):
+        d, _ = policy.comm_method.message_gradient(*args, weight=WEIGHT, gain=gain)
+        th.testing.assert_close(d, -inverted(-((1 - WEIGHT) * grounding + WEIGHT * gain * d_m), messages))
+    assert not th.allclose(d, policy.comm_method.message_gradient(*args, weight=WEIGHT)[0])
+
+
+def test_a_bad_gain_is_a_clear_error(tmp_path) -> None:
+    vec = make_vec_env(coin_env, n_envs=1)
+    with pytest.raises(ValueError, match="gsn_max_gain must be a number > 0"):
+        CommDDPG("GSN-MAX", vec, gsn_max_gain=0.0)
+    with pytest.raises(ValueError, match="gsn_max_gain applies to GSN-MAX only"):
+        CommDDPG("TCG", vec, gsn_max_gain=2.0)
+    model = replay_filled_model(gsn_max_gain=5.0)
+    model._init_callback(None)
+    assert model.gsn_callback.gain == 5.0
+    model.save(tmp_path / "gain.zip")
+    assert CommDDPG.load(tmp_path / "gain.zip", device="cpu").gsn_max_gain == 5.0

@@ -85,6 +85,10 @@ class CommDDPG(HybridDDPG):
         batch (per sender and message entry) before the mix, keeping its scale: only the part that
         differs between states moves the messages, so a critic that does not read the messages yet
         (whose gradient pushes every message the same way) adds next to nothing.
+    :param gsn_max_gain: GSN-MAX only: None (the default) scales each signal to unit RMS before the
+        mix; a number κ > 0 mixes them as they are, ``d = (1 − w)·d_g + w·κ·d_m``, so that a
+        maximising signal that is small (a receiver critic that barely depends on the message) stays
+        small instead of being scaled up to the grounding's size.
     :param buffer_size: replay size in joint transitions.
     :param learning_starts: transitions collected with full exploration before learning.
     :param batch_size: joint transitions per update (agents and GSN).
@@ -163,6 +167,7 @@ class CommDDPG(HybridDDPG):
         gsn_max_explore_messages: bool = True,
         gsn_max_warmup: float = 0.0,
         gsn_max_centred: bool = False,
+        gsn_max_gain: float | None = None,
         buffer_size: int = 1_000_000,
         learning_starts: int = 1_000,
         batch_size: int = 64,
@@ -203,6 +208,7 @@ class CommDDPG(HybridDDPG):
                 "gsn_max_explore_messages": gsn_max_explore_messages,
                 "gsn_max_warmup": gsn_max_warmup,
                 "gsn_max_centred": gsn_max_centred,
+                "gsn_max_gain": gsn_max_gain,
                 "tcg_gain": tcg_gain,
                 "relabel_messages": relabel_messages,
                 "shared_reward": shared_reward,
@@ -216,6 +222,7 @@ class CommDDPG(HybridDDPG):
         self.gsn_max_explore_messages = gsn_max_explore_messages
         self.gsn_max_warmup = gsn_max_warmup
         self.gsn_max_centred = gsn_max_centred
+        self.gsn_max_gain = gsn_max_gain
         self.tcg_gain = tcg_gain
         self.relabel_messages = relabel_messages
         # SB3's load builds the model with _init_setup_model=False, then sets the saved attributes:
@@ -345,6 +352,11 @@ class CommDDPG(HybridDDPG):
                     f"gsn_max_warmup applies to GSN-MAX only; method {self.method} got "
                     f"gsn_max_warmup={self.gsn_max_warmup!r}: leave it at 0"
                 )
+            if getattr(self, "gsn_max_gain", None) is not None:
+                raise ValueError(
+                    f"gsn_max_gain applies to GSN-MAX only; method {self.method} got "
+                    f"gsn_max_gain={self.gsn_max_gain!r}: leave it at None"
+                )
             if getattr(self, "gsn_max_centred", False) is not False:
                 raise ValueError(
                     f"gsn_max_centred applies to GSN-MAX only; method {self.method} got "
@@ -358,11 +370,12 @@ class CommDDPG(HybridDDPG):
                 f"nothing to weigh: leave gsn_max_weight at 0.5 (got {self.gsn_max_weight!r})"
             )
         head = self.gsn is not None and self.gsn.maximising_head is not None
-        if head and getattr(self, "gsn_max_centred", False):
+        shaped = getattr(self, "gsn_max_centred", False) or getattr(self, "gsn_max_gain", None) is not None
+        if head and shaped:
             raise ValueError(
-                "gsn_max_centred centres the maximising signal of GSN-MAX's one-extractor mix; with "
-                "policy_kwargs gsn_maximising_head=True the head is trained by the signal alone: leave "
-                "gsn_max_centred at False"
+                "gsn_max_centred and gsn_max_gain shape the maximising signal of GSN-MAX's one-extractor "
+                "mix; with policy_kwargs gsn_maximising_head=True the head is trained by the signal alone: "
+                "leave them at False and None"
             )
         self._attach_relabeler()
         self._agent_returns: deque[np.ndarray] = deque(maxlen=self._stats_window_size)
@@ -434,6 +447,7 @@ class CommDDPG(HybridDDPG):
                 max_warmup=getattr(self, "gsn_max_warmup", 0.0),  # models saved before the option
                 signals=self.gsn_max_signals,
                 centred=getattr(self, "gsn_max_centred", False),  # models saved before the option
+                gain=getattr(self, "gsn_max_gain", None),
                 head_learning_rate=self.actor_learning_rate,
             )
             callback = CallbackList([self.gsn_callback, callback])

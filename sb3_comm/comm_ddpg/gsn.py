@@ -246,6 +246,7 @@ class GSNTrainingCallback(BaseCallback):
         ``"maximising"``); GSN always uses only the grounding.
     :param centred: GSN-MAX's centred maximising signal (its batch mean removed,
         :meth:`GSNMAX.message_gradient <sb3_comm.comm_ddpg.methods.GSNMAX.message_gradient>`).
+    :param gain: GSN-MAX's raw mix gain κ (None: each signal scaled to unit RMS).
     :param beside_agents: run GSN updates in a second process beside the agents' (None: where
         :data:`BESIDE_AGENTS` allows it, a core is spare (:func:`spare_core`) and the update does
         not read the agents' networks). The result is the same either way; only the time differs.
@@ -266,6 +267,7 @@ class GSNTrainingCallback(BaseCallback):
         head_learning_rate: float | Schedule = 1e-4,
         max_warmup: float = 0.0,
         centred: bool = False,
+        gain: float | None = None,
     ) -> None:
         super().__init__(verbose)
         self.learning_rate = learning_rate
@@ -277,6 +279,7 @@ class GSNTrainingCallback(BaseCallback):
         self.max_grad_norm = max_grad_norm
         self.signals = signals
         self.centred = centred
+        self.gain = gain
         self.beside_agents = beside_agents
         self.n_updates = 0
         """GSN updates performed by this callback."""
@@ -432,7 +435,7 @@ class GSNTrainingCallback(BaseCallback):
                 *reward_grads, grounding = th.autograd.grad(loss, [*reward_model, sent])
                 gradient, stats = mixing(
                     policy, sent.detach(), grounding, data.next_observations, data.dones,
-                    self._weight_now, self.signals, self.centred,
+                    self._weight_now, self.signals, self.centred, self.gain,
                 )  # fmt: skip
                 extractor_grads = th.autograd.grad(messages, extractor, grad_outputs=gradient)
                 trained = [*reward_model, *extractor]

@@ -298,6 +298,8 @@ class GSNMAX(GSN):
     share of training, so that the grounding acts alone first (tried, not packaged: README).
     ``gsn_max_centred`` replaces ``d_m`` by ``d_m − mean_B d_m`` (still divided by ``rms(d_m)``), so
     that a slope that is the same in every state moves no message (tried, not packaged: README).
+    ``gsn_max_gain=κ`` mixes the signals unscaled, ``d = (1 − w)·d_g + w·κ·d_m`` (tried, not
+    packaged: README).
 
     Tried and left as an option: ``policy_kwargs`` ``gsn_reward_hears=True`` also gives ``R`` the
     message the teammate heard (the sender's previous one), so that a reward caused by that
@@ -337,6 +339,7 @@ class GSNMAX(GSN):
         weight: float = 0.5,
         signals: str = "both",
         centred: bool = False,
+        gain: float | None = None,
     ) -> tuple[th.Tensor, dict[str, th.Tensor]]:
         """The gradient ``d`` that trains the message extractor, at the messages.
 
@@ -351,6 +354,8 @@ class GSNMAX(GSN):
             non-terminal transitions, per sender and message entry), still divided by the RMS of
             the uncentred ``d_m`` in the mix: the part of the signal that is the same in every
             state, which a critic that does not read the messages yet gives, moves no message.
+        :param gain: None: each signal scaled to unit RMS (above); a number κ: the raw mix
+            ``d = (1 − w)·d_g + w·κ·d_m``.
         :return: ``d`` ``(B, 2, n)`` and the root-mean-squares of the signals used, for the log.
         """
         sent = messages.detach()
@@ -369,6 +374,8 @@ class GSNMAX(GSN):
             stats["gsn/maximising_state_share"] = maximising.pow(2).mean().sqrt() / rms_m.clamp_min(tiny)
         if signals == "maximising":
             mixed = maximising
+        elif gain is not None:
+            mixed = (1.0 - weight) * grounding + weight * gain * maximising
         else:
             tiny = th.finfo(sent.dtype).tiny
             unit_g, unit_m = grounding / rms_g.clamp_min(tiny), maximising / rms_m.clamp_min(tiny)
