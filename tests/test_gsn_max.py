@@ -419,3 +419,34 @@ def test_a_bad_gain_is_a_clear_error(tmp_path) -> None:
     assert model.gsn_callback.gain == 5.0
     model.save(tmp_path / "gain.zip")
     assert CommDDPG.load(tmp_path / "gain.zip", device="cpu").gsn_max_gain == 5.0
+
+
+def test_the_plain_maximising_step_adds_to_the_groundings_adam_step() -> None:
+    """``gsn_max_sgd=c``: the extractor takes the grounding's Adam step (as ``signals="grounding"``)
+    plus ``−c·lr·Jᵀ d_m``, the maximising signal's plain gradient step, so that a small signal moves
+    it little; the reward model takes the regression's step alone."""
+    c = 50.0
+    model = replay_filled_model(gsn_max_sgd=c)
+    gsn = model.policy.gsn
+    data = sample(model)
+    _, grounding_grads, _ = expected_gradients(model, data, "grounding")
+    ref = copy.deepcopy(gsn).train(True)
+    messages = ref.message(data.observations)
+    d_m = -receiver_gradient_by_hand(model, data, messages) / len(messages)
+    plain = th.autograd.grad(
+        messages, list(ref.message_extractor.parameters()), grad_outputs=-inverted(-d_m, messages.detach())
+    )
+    before = params(gsn.message_extractor)
+    callback = GSNTrainingCallback(LR, 16, model.max_grad_norm, sgd=c)
+    callback.init_callback(model)
+    np.random.seed(7)
+    callback.train_gsn(1)
+    after = params(gsn.message_extractor)
+    adam_part = [a - b + c * LR * p for a, b, p in zip(after, before, plain, strict=True)]
+    assert_adam_first_step(before, [b + d for b, d in zip(before, adam_part, strict=True)], grounding_grads)
+    assert any(p.abs().max() > 1e-6 for p in plain)
+    vec = make_vec_env(coin_env, n_envs=1)
+    with pytest.raises(ValueError, match="gsn_max_sgd steps the two signals apart"):
+        CommDDPG("GSN-MAX", vec, gsn_max_sgd=1.0, gsn_max_signals="grounding")
+    with pytest.raises(ValueError, match="gsn_max_sgd applies to GSN-MAX only"):
+        CommDDPG("GSN", vec, gsn_max_sgd=1.0)

@@ -89,6 +89,10 @@ class CommDDPG(HybridDDPG):
         mix; a number κ > 0 mixes them as they are, ``d = (1 − w)·d_g + w·κ·d_m``, so that a
         maximising signal that is small (a receiver critic that barely depends on the message) stays
         small instead of being scaled up to the grounding's size.
+    :param gsn_max_sgd: GSN-MAX only: None (the default) mixes the signals in one Adam step; a number
+        c > 0 gives the grounding its own Adam step and the maximising signal a plain gradient step
+        of rate ``c`` × the GSN's learning rate, so that its step follows its size (Adam would turn a
+        small signal into full-size steps).
     :param buffer_size: replay size in joint transitions.
     :param learning_starts: transitions collected with full exploration before learning.
     :param batch_size: joint transitions per update (agents and GSN).
@@ -168,6 +172,7 @@ class CommDDPG(HybridDDPG):
         gsn_max_warmup: float = 0.0,
         gsn_max_centred: bool = False,
         gsn_max_gain: float | None = None,
+        gsn_max_sgd: float | None = None,
         buffer_size: int = 1_000_000,
         learning_starts: int = 1_000,
         batch_size: int = 64,
@@ -209,6 +214,7 @@ class CommDDPG(HybridDDPG):
                 "gsn_max_warmup": gsn_max_warmup,
                 "gsn_max_centred": gsn_max_centred,
                 "gsn_max_gain": gsn_max_gain,
+                "gsn_max_sgd": gsn_max_sgd,
                 "tcg_gain": tcg_gain,
                 "relabel_messages": relabel_messages,
                 "shared_reward": shared_reward,
@@ -223,6 +229,7 @@ class CommDDPG(HybridDDPG):
         self.gsn_max_warmup = gsn_max_warmup
         self.gsn_max_centred = gsn_max_centred
         self.gsn_max_gain = gsn_max_gain
+        self.gsn_max_sgd = gsn_max_sgd
         self.tcg_gain = tcg_gain
         self.relabel_messages = relabel_messages
         # SB3's load builds the model with _init_setup_model=False, then sets the saved attributes:
@@ -352,6 +359,11 @@ class CommDDPG(HybridDDPG):
                     f"gsn_max_warmup applies to GSN-MAX only; method {self.method} got "
                     f"gsn_max_warmup={self.gsn_max_warmup!r}: leave it at 0"
                 )
+            if getattr(self, "gsn_max_sgd", None) is not None:
+                raise ValueError(
+                    f"gsn_max_sgd applies to GSN-MAX only; method {self.method} got "
+                    f"gsn_max_sgd={self.gsn_max_sgd!r}: leave it at None"
+                )
             if getattr(self, "gsn_max_gain", None) is not None:
                 raise ValueError(
                     f"gsn_max_gain applies to GSN-MAX only; method {self.method} got "
@@ -370,7 +382,17 @@ class CommDDPG(HybridDDPG):
                 f"nothing to weigh: leave gsn_max_weight at 0.5 (got {self.gsn_max_weight!r})"
             )
         head = self.gsn is not None and self.gsn.maximising_head is not None
+        sgd = getattr(self, "gsn_max_sgd", None)
+        gain = getattr(self, "gsn_max_gain", None)
+        if sgd is not None and (gain is not None or self.gsn_max_signals != "both"):
+            raise ValueError(
+                "gsn_max_sgd steps the two signals apart (Adam for the grounding, a plain gradient step for "
+                "the maximising signal): it takes both signals (gsn_max_signals='both') and no "
+                f"gsn_max_gain (got gsn_max_signals={self.gsn_max_signals!r}, "
+                f"gsn_max_gain={gain!r})"
+            )
         shaped = getattr(self, "gsn_max_centred", False) or getattr(self, "gsn_max_gain", None) is not None
+        shaped = shaped or sgd is not None
         if head and shaped:
             raise ValueError(
                 "gsn_max_centred and gsn_max_gain shape the maximising signal of GSN-MAX's one-extractor "
@@ -448,6 +470,7 @@ class CommDDPG(HybridDDPG):
                 signals=self.gsn_max_signals,
                 centred=getattr(self, "gsn_max_centred", False),  # models saved before the option
                 gain=getattr(self, "gsn_max_gain", None),
+                sgd=getattr(self, "gsn_max_sgd", None),
                 head_learning_rate=self.actor_learning_rate,
             )
             callback = CallbackList([self.gsn_callback, callback])

@@ -247,6 +247,8 @@ class GSNTrainingCallback(BaseCallback):
     :param centred: GSN-MAX's centred maximising signal (its batch mean removed,
         :meth:`GSNMAX.message_gradient <sb3_comm.comm_ddpg.methods.GSNMAX.message_gradient>`).
     :param gain: GSN-MAX's raw mix gain κ (None: each signal scaled to unit RMS).
+    :param sgd: GSN-MAX's plain-gradient rate of the maximising signal, a multiple of the GSN's
+        learning rate (None: one Adam step on the mix).
     :param beside_agents: run GSN updates in a second process beside the agents' (None: where
         :data:`BESIDE_AGENTS` allows it, a core is spare (:func:`spare_core`) and the update does
         not read the agents' networks). The result is the same either way; only the time differs.
@@ -268,6 +270,7 @@ class GSNTrainingCallback(BaseCallback):
         max_warmup: float = 0.0,
         centred: bool = False,
         gain: float | None = None,
+        sgd: float | None = None,
     ) -> None:
         super().__init__(verbose)
         self.learning_rate = learning_rate
@@ -280,6 +283,7 @@ class GSNTrainingCallback(BaseCallback):
         self.signals = signals
         self.centred = centred
         self.gain = gain
+        self.sgd = sgd
         self.beside_agents = beside_agents
         self.n_updates = 0
         """GSN updates performed by this callback."""
@@ -433,10 +437,18 @@ class GSNTrainingCallback(BaseCallback):
                 sent = messages.detach().requires_grad_(True)
                 loss = gsn.loss(data.observations, data.actions, data.rewards, messages=sent)
                 *reward_grads, grounding = th.autograd.grad(loss, [*reward_model, sent])
+                signals = "grounding" if self.sgd is not None else self.signals
                 gradient, stats = mixing(
                     policy, sent.detach(), grounding, data.next_observations, data.dones,
-                    self._weight_now, self.signals, self.centred, self.gain,
+                    self._weight_now, signals, self.centred, self.gain,
                 )  # fmt: skip
+                plain_step = None
+                if self.sgd is not None:  # the maximising signal's own, plain gradient step
+                    ascent, max_stats = policy.comm_method.head_gradient(
+                        policy, sent.detach(), data.next_observations, data.dones
+                    )
+                    stats.update(max_stats)
+                    plain_step = th.autograd.grad(messages, extractor, grad_outputs=ascent, retain_graph=True)
                 extractor_grads = th.autograd.grad(messages, extractor, grad_outputs=gradient)
                 trained = [*reward_model, *extractor]
                 for param, grad in zip(trained, [*reward_grads, *extractor_grads], strict=True):
@@ -444,6 +456,10 @@ class GSNTrainingCallback(BaseCallback):
                 if self.max_grad_norm:
                     clip_gradients(trained, self.max_grad_norm)
                 gsn.optimizer.step()  # type: ignore[union-attr]
+                if plain_step is not None:
+                    rate = self.sgd * gsn.optimizer.param_groups[0]["lr"]  # type: ignore[union-attr, operator]
+                    with th.no_grad():
+                        th._foreach_add_(extractor, list(plain_step), alpha=-rate)
                 values += [(key, value, 1) for key, value in stats.items()]
             loss = loss.detach()
             values.append(("gsn/loss", loss, 1))

@@ -298,8 +298,9 @@ class GSNMAX(GSN):
     share of training, so that the grounding acts alone first (tried, not packaged: README).
     ``gsn_max_centred`` replaces ``d_m`` by ``d_m − mean_B d_m`` (still divided by ``rms(d_m)``), so
     that a slope that is the same in every state moves no message (tried, not packaged: README).
-    ``gsn_max_gain=κ`` mixes the signals unscaled, ``d = (1 − w)·d_g + w·κ·d_m`` (tried, not
-    packaged: README).
+    ``gsn_max_gain=κ`` mixes the signals unscaled, ``d = (1 − w)·d_g + w·κ·d_m``, and
+    ``gsn_max_sgd=c`` gives the grounding its own Adam step and the maximising signal a plain step
+    ``θm ← θm − c·η·Jᵀ inv(d_m)`` (both tried, not packaged: README).
 
     Tried and left as an option: ``policy_kwargs`` ``gsn_reward_hears=True`` also gives ``R`` the
     message the teammate heard (the sender's previous one), so that a reward caused by that

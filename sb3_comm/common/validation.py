@@ -324,6 +324,7 @@ HYPERPARAMETERS: dict[str, Check] = {
     "gsn_max_warmup": Range(0.0, 1.0, high_open=True),
     "gsn_max_centred": Flag(),
     "gsn_max_gain": Range(0.0, low_open=True, special=(None,), hint="None: each signal scaled to unit RMS"),
+    "gsn_max_sgd": Range(0.0, low_open=True, special=(None,), hint="None: one Adam step on the mix"),
     "buffer_size": SIZE,
     "learning_starts": Range(0, whole=True),
     "batch_size": SIZE,
