@@ -50,8 +50,11 @@ def main() -> None:
     digests = {}
     for method in args.methods:
         env = make_comm_vec_env(args.env, n_envs=args.n_envs, seed=args.seed)
+        # GSN pinned to the paper's reward model, so that digests compare with those made before
+        # CommDDPG's GSN default became gsn_reward_sees_teammate=True
+        kwargs = {"net_arch": [256, 256], **({"gsn_reward_sees_teammate": False} if method == "GSN" else {})}
         model = CommDDPG(
-            method, env, policy_kwargs={"net_arch": [256, 256]}, batch_size=64, learning_starts=500,
+            method, env, policy_kwargs=kwargs, batch_size=64, learning_starts=500,
             mc_mixing=0.5, seed=args.seed, device="cpu",
         )  # fmt: skip
         model.learn(args.steps)

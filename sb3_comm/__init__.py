@@ -16,7 +16,14 @@ and on top :mod:`~sb3_comm.experiments`, :mod:`~sb3_comm.analysis`, :mod:`~sb3_c
 ``sb3-comm`` command (:mod:`~sb3_comm.cli`). The tasks come from ``envs.registry``.
 """
 
-from sb3_comm.comm_ddpg import METHODS, CommDDPG, CommPolicy, GroundedSemanticNetwork, HybridDDPG
+from sb3_comm.comm_ddpg import (
+    GSN_REWARD_SEES_TEAMMATE,
+    METHODS,
+    CommDDPG,
+    CommPolicy,
+    GroundedSemanticNetwork,
+    HybridDDPG,
+)
 from sb3_comm.common.layout import CommLayout, HybridActionLayout
 from sb3_comm.config import RunConfig
 from sb3_comm.registration import TASK_IDS, make_comm_vec_env, register_envs
@@ -29,6 +36,7 @@ register_envs()
 __version__ = "0.2.0"
 
 __all__ = [
+    "GSN_REWARD_SEES_TEAMMATE",
     "METHODS",
     "TASK_IDS",
     "BatchedTwoAgentVecEnv",

@@ -109,7 +109,8 @@ def test_one_gsn_update_beside_the_agents_equals_the_reference(monkeypatch: pyte
     env = make_vec_env(coin_env, n_envs=2, seed=0)
     model = CommDDPG(
         "GSN", env, batch_size=16, learning_starts=20, seed=0, max_grad_norm=0.5, gsn_learning_rate=1e-3,
-        policy_kwargs={"net_arch": [16, 16], "gsn_net_arch": [8], "gsn_reward_net_arch": [8]},
+        policy_kwargs={"net_arch": [16, 16], "gsn_net_arch": [8], "gsn_reward_net_arch": [8],
+                       "gsn_reward_sees_teammate": False},  # the paper's R(M(o_i), a_j)
     )  # fmt: skip
     model.learn(60)
     callback = model.gsn_callback

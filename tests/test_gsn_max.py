@@ -276,8 +276,9 @@ def test_the_reward_model_can_also_hear_what_the_teammate_heard(tmp_path) -> Non
     assert CommDDPG.load(tmp_path / "hears.zip", device="cpu").policy.gsn.heard_dim == n
 
     paper_gsn = CommDDPG(
-        "GSN", make_vec_env(coin_env, n_envs=1), policy_kwargs={"gsn_net_arch": [16]}
-    ).policy.gsn
+        "GSN", make_vec_env(coin_env, n_envs=1),
+        policy_kwargs={"gsn_net_arch": [16], "gsn_reward_sees_teammate": False},
+    ).policy.gsn  # fmt: skip
     assert paper_gsn.heard_dim == 0
     assert paper_gsn.reward_model.nets[0][0].in_features == n + paper_gsn.teammate_action_dim
 

@@ -54,8 +54,10 @@ def test_the_reward_model_sees_the_teammates_observation_but_not_what_it_heard(t
     assert loaded.policy.gsn_reward_sees_teammate is True
 
 
-def test_off_by_default_as_in_the_paper() -> None:
-    gsn = _gsn_model().policy.gsn
+def test_off_in_the_policy_as_in_the_paper() -> None:
+    """The policy's own default is the paper's ``R(M(o_i), a_j)`` (CommDDPG sets True for a new GSN
+    model; see the test below), which ``gsn_reward_sees_teammate=False`` asks for."""
+    gsn = _gsn_model(gsn_reward_sees_teammate=False).policy.gsn
     assert gsn.teammate_obs_dim == 0
     assert gsn.reward_model.nets[0][0].in_features == gsn.message_extractor.nets[0][-1].out_features + (
         gsn.teammate_action_dim
@@ -65,3 +67,32 @@ def test_off_by_default_as_in_the_paper() -> None:
 def test_a_non_boolean_value_is_a_clear_error() -> None:
     with pytest.raises(TypeError, match=r"gsn_reward_sees_teammate'\] must be True or False, got 'yes'"):
         _gsn_model(gsn_reward_sees_teammate="yes")
+
+
+def test_a_new_gsn_sees_the_teammate_by_default_and_old_files_keep_the_papers_model(tmp_path) -> None:
+    """``CommDDPG("GSN", env)`` sets ``gsn_reward_sees_teammate=True`` unless told otherwise (and
+    saves it explicitly); GSN-MAX and the other methods keep the policy's default; a model built for
+    loading (``_init_setup_model=False``) gets nothing added, so a file saved before the default
+    changed rebuilds the paper's ``R(M(o_i), a_j)`` it was trained with."""
+    from sb3_comm import GSN_REWARD_SEES_TEAMMATE
+    from sb3_comm.comm_ddpg.policies import CommPolicy, GSNPolicy
+
+    assert GSN_REWARD_SEES_TEAMMATE is True
+    env = make_vec_env(coin_env, n_envs=1)
+    for policy, kwargs in (
+        ("GSN", None),
+        ("gsn", {"net_arch": [16]}),
+        (GSNPolicy, None),
+        (CommPolicy, {"method": "GSN"}),
+    ):
+        model = CommDDPG(policy, env, policy_kwargs=kwargs)
+        assert model.policy.gsn_reward_sees_teammate is True, policy
+        assert model.policy.gsn.teammate_obs_dim > 0
+    paper = CommDDPG("GSN", env, policy_kwargs={"gsn_reward_sees_teammate": False})
+    assert paper.policy.gsn.teammate_obs_dim == 0
+    assert CommDDPG("GSN-MAX", env).policy.gsn.teammate_obs_dim == 0
+    assert "gsn_reward_sees_teammate" not in CommDDPG("TCG", env).policy_kwargs
+    assert "gsn_reward_sees_teammate" not in CommDDPG("GSN", env, _init_setup_model=False).policy_kwargs
+    model = CommDDPG("GSN", env)
+    model.save(tmp_path / "default.zip")
+    assert CommDDPG.load(tmp_path / "default.zip", device="cpu").policy.gsn.teammate_obs_dim > 0

@@ -7,7 +7,7 @@ run one way: ``gsn`` <- ``methods`` <- ``policies`` <- ``comm_ddpg``.
 """
 
 from sb3_comm.comm_ddpg.buffers import JointReplayBuffer
-from sb3_comm.comm_ddpg.comm_ddpg import CommDDPG
+from sb3_comm.comm_ddpg.comm_ddpg import GSN_REWARD_SEES_TEAMMATE, CommDDPG
 from sb3_comm.comm_ddpg.gsn import GroundedSemanticNetwork, GSNTrainingCallback
 from sb3_comm.comm_ddpg.methods import COMM_METHODS, METHODS, CommMethod
 from sb3_comm.comm_ddpg.policies import CommPolicy, GSNMAXPolicy, GSNPolicy, NonePolicy, RIALPolicy, TCGPolicy
@@ -15,6 +15,7 @@ from sb3_comm.hybrid_ddpg import HybridDDPG, HybridPolicy
 
 __all__ = [
     "COMM_METHODS",
+    "GSN_REWARD_SEES_TEAMMATE",
     "METHODS",
     "CommDDPG",
     "CommMethod",
