@@ -384,8 +384,10 @@ def test_centring_is_gsn_max_only_saved_and_checked(tmp_path) -> None:
         CommDDPG("GSN", vec, gsn_max_centred=True)
     with pytest.raises(TypeError, match="gsn_max_centred must be True or False, got 'yes'"):
         CommDDPG("GSN-MAX", vec, gsn_max_centred="yes")
-    with pytest.raises(ValueError, match="gsn_max_centred and gsn_max_gain shape the maximising signal"):
+    with pytest.raises(ValueError, match="gsn_max_sgd shape the maximising signal of"):
         CommDDPG("GSN-MAX", vec, gsn_max_centred=True, policy_kwargs={"gsn_maximising_head": True})
+    with pytest.raises(ValueError, match="gsn_max_sgd shape the maximising signal"):
+        CommDDPG("GSN-MAX", vec, gsn_max_sgd=1.0, policy_kwargs={"gsn_maximising_head": True})
     model = replay_filled_model(gsn_max_centred=True)
     callback = model._init_callback(None)
     assert model.gsn_callback.centred is True and callback is not None

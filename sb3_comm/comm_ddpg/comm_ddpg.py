@@ -424,9 +424,9 @@ class CommDDPG(HybridDDPG):
         shaped = shaped or sgd is not None
         if head and shaped:
             raise ValueError(
-                "gsn_max_centred and gsn_max_gain shape the maximising signal of GSN-MAX's one-extractor "
-                "mix; with policy_kwargs gsn_maximising_head=True the head is trained by the signal alone: "
-                "leave them at False and None"
+                "gsn_max_centred, gsn_max_gain and gsn_max_sgd shape the maximising signal of GSN-MAX's "
+                "one-extractor mix; with policy_kwargs gsn_maximising_head=True the head is trained by the "
+                "signal alone: leave them at False, None and None"
             )
         self._attach_relabeler()
         self._agent_returns: deque[np.ndarray] = deque(maxlen=self._stats_window_size)
