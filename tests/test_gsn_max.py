@@ -95,6 +95,18 @@ def receiver_gradient_by_hand(model: CommDDPG, data, messages: th.Tensor) -> th.
     return th.autograd.grad(total, m)[0]
 
 
+def mix_inputs():
+    """A fresh model's batch, its messages, a small grounding gradient at them, the arguments of
+    ``message_gradient`` and the maximising signal ``d_m = −g / B`` computed by hand."""
+    model = replay_filled_model()
+    data = sample(model)
+    messages = model.policy.gsn.message(data.observations).detach()
+    grounding = 1e-3 * th.randn_like(messages)
+    args = (model.policy, messages, grounding, data.next_observations, data.dones)
+    d_m = -receiver_gradient_by_hand(model, data, messages) / len(messages)
+    return model, data, messages, grounding, args, d_m
+
+
 def expected_gradients(model: CommDDPG, data, signals: str):
     """By hand, on a copy: the reward model's regression gradient and the extractor's gradient
     ``Jᵀ d`` with ``d`` mixed as the GSNMAX docstring says."""
@@ -139,13 +151,8 @@ def test_the_maximising_gradient_is_tcgs_receiver_gradient_inverted() -> None:
 
 
 def test_the_mix_scales_each_signal_to_unit_rms() -> None:
-    model = replay_filled_model()
+    model, _, messages, grounding, args, d_m = mix_inputs()
     policy = model.policy
-    data = sample(model)
-    messages = policy.gsn.message(data.observations).detach()
-    grounding = 1e-3 * th.randn_like(messages)
-    args = (policy, messages, grounding, data.next_observations, data.dones)
-    d_m = -receiver_gradient_by_hand(model, data, messages) / len(messages)
     rms = lambda x: x.pow(2).mean().sqrt()  # noqa: E731
     for w in (0.0, 0.25, 1.0):
         d, _ = policy.comm_method.message_gradient(*args, weight=w)
@@ -342,13 +349,8 @@ def test_the_centred_mix_removes_the_maximising_signals_batch_mean() -> None:
     """``gsn_max_centred``: the maximising signal less its mean over the batch's non-terminal rows
     (per sender and entry), divided by the uncentred signal's RMS; a signal that is the same in
     every state then adds nothing, and the share of the state-dependent part is logged."""
-    model = replay_filled_model()
+    model, data, messages, grounding, args, d_m = mix_inputs()
     policy = model.policy
-    data = sample(model)
-    messages = policy.gsn.message(data.observations).detach()
-    grounding = 1e-3 * th.randn_like(messages)
-    args = (policy, messages, grounding, data.next_observations, data.dones)
-    d_m = -receiver_gradient_by_hand(model, data, messages) / len(messages)
     live = 1 - data.dones[:, 0]
     assert live.sum() > 0
     mean = (d_m * live[:, None, None]).sum(0) / live.sum()
@@ -398,13 +400,8 @@ def test_centring_is_gsn_max_only_saved_and_checked(tmp_path) -> None:
 def test_the_raw_mix_keeps_each_signals_size() -> None:
     """``gsn_max_gain=κ``: ``d = (1 − w)·d_g + w·κ·d_m`` with neither signal rescaled, so a tiny
     maximising signal stays tiny (the unit-RMS mix would blow it up to the grounding's size)."""
-    model = replay_filled_model()
+    model, _, messages, grounding, args, d_m = mix_inputs()
     policy = model.policy
-    data = sample(model)
-    messages = policy.gsn.message(data.observations).detach()
-    grounding = 1e-3 * th.randn_like(messages)
-    args = (policy, messages, grounding, data.next_observations, data.dones)
-    d_m = -receiver_gradient_by_hand(model, data, messages) / len(messages)
     for gain in (0.5, 20.0):
         d, _ = policy.comm_method.message_gradient(*args, weight=WEIGHT, gain=gain)
         th.testing.assert_close(d, -inverted(-((1 - WEIGHT) * grounding + WEIGHT * gain * d_m), messages))

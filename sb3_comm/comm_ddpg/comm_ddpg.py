@@ -378,31 +378,20 @@ class CommDDPG(HybridDDPG):
                     f"gsn_max_signals applies to GSN-MAX only (it switches one of its two signals off); "
                     f"method {self.method} got gsn_max_signals={self.gsn_max_signals!r}: leave it at 'both'"
                 )
-            if self.gsn_max_explore_messages is not True:
-                raise ValueError(
-                    f"gsn_max_explore_messages applies to GSN-MAX only; method {self.method} got "
-                    f"gsn_max_explore_messages={self.gsn_max_explore_messages!r}: leave it at True"
-                )
-            if self.gsn_max_warmup != 0.0:
-                raise ValueError(
-                    f"gsn_max_warmup applies to GSN-MAX only; method {self.method} got "
-                    f"gsn_max_warmup={self.gsn_max_warmup!r}: leave it at 0"
-                )
-            if getattr(self, "gsn_max_sgd", None) is not None:
-                raise ValueError(
-                    f"gsn_max_sgd applies to GSN-MAX only; method {self.method} got "
-                    f"gsn_max_sgd={self.gsn_max_sgd!r}: leave it at None"
-                )
-            if getattr(self, "gsn_max_gain", None) is not None:
-                raise ValueError(
-                    f"gsn_max_gain applies to GSN-MAX only; method {self.method} got "
-                    f"gsn_max_gain={self.gsn_max_gain!r}: leave it at None"
-                )
-            if getattr(self, "gsn_max_centred", False) is not False:
-                raise ValueError(
-                    f"gsn_max_centred applies to GSN-MAX only; method {self.method} got "
-                    f"gsn_max_centred={self.gsn_max_centred!r}: leave it at False"
-                )
+            # (option, its value when off, how that value is written); getattr: models saved before an option
+            for name, off, shown in (
+                ("gsn_max_explore_messages", True, "True"),
+                ("gsn_max_warmup", 0.0, "0"),
+                ("gsn_max_sgd", None, "None"),
+                ("gsn_max_gain", None, "None"),
+                ("gsn_max_centred", False, "False"),
+            ):
+                value = getattr(self, name, off)
+                if (value is not off) if isinstance(off, bool) or off is None else (value != off):
+                    raise ValueError(
+                        f"{name} applies to GSN-MAX only; method {self.method} got {name}={value!r}: "
+                        f"leave it at {shown}"
+                    )
         self.gsn = self.policy.gsn
         if self.gsn is not None and self.gsn.maximising_head is not None and self.gsn_max_weight != 0.5:
             raise ValueError(
@@ -420,9 +409,7 @@ class CommDDPG(HybridDDPG):
                 f"gsn_max_gain (got gsn_max_signals={self.gsn_max_signals!r}, "
                 f"gsn_max_gain={gain!r})"
             )
-        shaped = getattr(self, "gsn_max_centred", False) or getattr(self, "gsn_max_gain", None) is not None
-        shaped = shaped or sgd is not None
-        if head and shaped:
+        if head and (getattr(self, "gsn_max_centred", False) or gain is not None or sgd is not None):
             raise ValueError(
                 "gsn_max_centred, gsn_max_gain and gsn_max_sgd shape the maximising signal of GSN-MAX's "
                 "one-extractor mix; with policy_kwargs gsn_maximising_head=True the head is trained by the "
