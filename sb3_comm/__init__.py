@@ -19,6 +19,7 @@ and on top :mod:`~sb3_comm.experiments`, :mod:`~sb3_comm.analysis`, :mod:`~sb3_c
 from sb3_comm.comm_ddpg import (
     GSN_REWARD_SEES_TEAMMATE,
     METHODS,
+    OWN_REWARD_METHODS,
     CommDDPG,
     CommPolicy,
     GroundedSemanticNetwork,
@@ -38,6 +39,7 @@ __version__ = "0.2.0"
 __all__ = [
     "GSN_REWARD_SEES_TEAMMATE",
     "METHODS",
+    "OWN_REWARD_METHODS",
     "TASK_IDS",
     "BatchedTwoAgentVecEnv",
     "CommDDPG",

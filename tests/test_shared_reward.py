@@ -3,21 +3,23 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 import yaml
 from stable_baselines3.common.callbacks import BaseCallback
 
-from sb3_comm import CommDDPG, make_comm_vec_env
+from sb3_comm import OWN_REWARD_METHODS, CommDDPG, make_comm_vec_env
+from sb3_comm.comm_ddpg import CommPolicy, TCGPolicy
 
 ZOO = Path(__file__).resolve().parents[1] / "zoo_configs"
 
 
-def _model(**kwargs) -> CommDDPG:
+def _model(method: Any = "GSN", **kwargs) -> CommDDPG:
     # Guess My Number: the two agents' rewards differ (each hangs on the teammate's message)
     env = make_comm_vec_env("GuessMyNumber-v0", n_envs=4, seed=0)
-    return CommDDPG("GSN", env, learning_starts=1000, batch_size=8, seed=0, device="cpu", **kwargs)
+    return CommDDPG(method, env, learning_starts=1000, batch_size=8, seed=0, device="cpu", **kwargs)
 
 
 def _stored(model: CommDDPG, steps: int = 40) -> tuple[np.ndarray, np.ndarray]:
@@ -41,6 +43,31 @@ def test_default_is_the_team_reward_for_every_agent() -> None:
     assert (given[..., 0] != given[..., 1]).any()  # the task gives different rewards...
     np.testing.assert_allclose(stored[..., 0], given.mean(axis=-1), rtol=1e-6)  # ...both learn the mean
     np.testing.assert_array_equal(stored[..., 0], stored[..., 1])
+
+
+@pytest.mark.parametrize("method", ["NONE", "RIAL", "GSN", "GSN-MAX"])
+def test_default_is_the_team_reward_for_the_other_methods(method: str) -> None:
+    assert _model(method).shared_reward is True
+
+
+@pytest.mark.parametrize(
+    "how",
+    [
+        dict(method="TCG"),
+        dict(method="tcg"),
+        dict(method=TCGPolicy),
+        dict(method=CommPolicy, policy_kwargs={"method": "TCG"}),
+    ],
+)
+def test_tcg_defaults_to_each_agents_own_reward(how: dict) -> None:
+    """TCG, however it is named, learns from its own reward unless told otherwise."""
+    assert OWN_REWARD_METHODS == ("TCG",)
+    model = _model(**how)
+    assert model.method == "TCG"
+    assert model.shared_reward is False and model.replay_buffer.shared_reward is False
+    stored, given = _stored(model)
+    np.testing.assert_array_equal(stored, given)
+    assert _model("TCG", shared_reward=True).shared_reward is True  # an explicit value wins
 
 
 def test_false_keeps_each_agents_own_reward() -> None:

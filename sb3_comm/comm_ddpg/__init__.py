@@ -7,7 +7,7 @@ run one way: ``gsn`` <- ``methods`` <- ``policies`` <- ``comm_ddpg``.
 """
 
 from sb3_comm.comm_ddpg.buffers import JointReplayBuffer
-from sb3_comm.comm_ddpg.comm_ddpg import GSN_REWARD_SEES_TEAMMATE, CommDDPG
+from sb3_comm.comm_ddpg.comm_ddpg import GSN_REWARD_SEES_TEAMMATE, OWN_REWARD_METHODS, CommDDPG
 from sb3_comm.comm_ddpg.gsn import GroundedSemanticNetwork, GSNTrainingCallback
 from sb3_comm.comm_ddpg.methods import COMM_METHODS, METHODS, CommMethod
 from sb3_comm.comm_ddpg.policies import CommPolicy, GSNMAXPolicy, GSNPolicy, NonePolicy, RIALPolicy, TCGPolicy
@@ -17,6 +17,7 @@ __all__ = [
     "COMM_METHODS",
     "GSN_REWARD_SEES_TEAMMATE",
     "METHODS",
+    "OWN_REWARD_METHODS",
     "CommDDPG",
     "CommMethod",
     "CommPolicy",
