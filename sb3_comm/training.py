@@ -374,6 +374,11 @@ def _finish_tensorboard(
         metrics["final/steps_to_target"] = float(result.steps_to_target)
     hparams = {"method": config.method, "task": config.task, "seed": config.seed, **result.hyperparams}
     try:
+        # what a default chose by method (absent from the configuration, so from its hyperparameters)
+        hparams.setdefault("shared_reward", bool(model.shared_reward))
+        sees_teammate = (model.policy_kwargs or {}).get("gsn_reward_sees_teammate")
+        if sees_teammate is not None:
+            hparams.setdefault("gsn_reward_sees_teammate", bool(sees_teammate))
         record_hparams(model.logger, hparams, metrics, int(model.num_timesteps))
         # the projector labels messages with the receiver's action type: hybrid actions only
         if settings.projector_episodes > 0 and model.comm_layout.channel_size and model.comm_layout.hybrid:

@@ -17,6 +17,7 @@ import pytest
 import torch as th
 from stable_baselines3.common.logger import Logger
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+from tensorboard.plugins.hparams import plugin_data_pb2
 
 from sb3_comm import CommDDPG
 from sb3_comm.common.train_log import TrainLog, dump_only
@@ -103,6 +104,32 @@ def test_histograms_hparams_video_and_projector_are_written(gsn_run) -> None:
     vectors = np.loadtxt(run_dir / "tb" / "00400" / "messages" / "tensors.tsv", ndmin=2)
     assert vectors.shape == (len(metadata) - 1, 4)
     assert {row.split("\t")[1] for row in metadata[1:]} <= {"dash", "turn", "kick"}
+
+
+def _hparams(folder: Path) -> dict[str, Any]:
+    """The run's values in TensorBoard's HPARAMS view."""
+    content = _events(folder).PluginTagToContent("hparams")["_hparams_/session_start_info"]
+    values = plugin_data_pb2.HParamsPluginData.FromString(content).session_start_info.hparams
+    return {key: getattr(value, value.WhichOneof("kind")) for key, value in values.items()}
+
+
+@pytest.mark.parametrize(
+    ("method", "shared", "sees_teammate"), [("TCG", False, None), ("GSN", True, True), ("NONE", True, None)]
+)
+def test_hparams_show_what_a_default_chose_by_method(method, shared, sees_teammate, tmp_path: Path) -> None:
+    """A run with the constructor's defaults: the reward (TCG: each agent's own) and GSN's reward
+    model, which no configuration names, are in the HPARAMS view."""
+    tiny = {"learning_starts": 40, "batch_size": 8, "buffer_size": 500, "n_envs": 4, "n_timesteps": 80}
+    config = RunConfig.constructor_defaults(method, "GuessMyNumber-v0").with_overrides(tiny)
+    assert "shared_reward" not in config.hyperparams
+    train_run(config, tmp_path / "run", evaluation=EvalSettings(freq=80, episodes=2), save_freq=0)
+    hparams = _hparams(tmp_path / "run" / "tb")
+    assert hparams["method"] == method
+    assert hparams["shared_reward"] == shared  # a bool is written as a number (1.0 / 0.0)
+    if sees_teammate is None:
+        assert "gsn_reward_sees_teammate" not in hparams
+    else:
+        assert hparams["gsn_reward_sees_teammate"] == sees_teammate
 
 
 def test_plain_learn_logs_every_log_interval_steps(tmp_path: Path) -> None:
