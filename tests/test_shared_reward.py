@@ -45,8 +45,9 @@ def test_default_is_the_team_reward_for_every_agent() -> None:
     np.testing.assert_array_equal(stored[..., 0], stored[..., 1])
 
 
-@pytest.mark.parametrize("method", ["NONE", "RIAL", "GSN", "GSN-MAX"])
+@pytest.mark.parametrize("method", ["NONE", "RIAL", "GSN-MAX"])  # GSN: the test above
 def test_default_is_the_team_reward_for_the_other_methods(method: str) -> None:
+    assert OWN_REWARD_METHODS == ("TCG",)
     assert _model(method).shared_reward is True
 
 
@@ -60,14 +61,16 @@ def test_default_is_the_team_reward_for_the_other_methods(method: str) -> None:
     ],
 )
 def test_tcg_defaults_to_each_agents_own_reward(how: dict) -> None:
-    """TCG, however it is named, learns from its own reward unless told otherwise."""
-    assert OWN_REWARD_METHODS == ("TCG",)
+    """TCG, however it is named, learns from its own reward."""
     model = _model(**how)
     assert model.method == "TCG"
     assert model.shared_reward is False and model.replay_buffer.shared_reward is False
     stored, given = _stored(model)
     np.testing.assert_array_equal(stored, given)
-    assert _model("TCG", shared_reward=True).shared_reward is True  # an explicit value wins
+
+
+def test_an_explicit_value_wins_over_tcgs_default() -> None:
+    assert _model("TCG", shared_reward=True).shared_reward is True
 
 
 def test_false_keeps_each_agents_own_reward() -> None:
