@@ -54,11 +54,38 @@ def test_skip_leaves_a_cut_episode_to_the_td_target() -> None:
     assert buffer.mc_valid[3, 1] == 1.0
 
 
+def test_bootstrap_completes_a_cut_episode_at_the_cut() -> None:
+    buffer = _buffer(mc_truncated="bootstrap")
+    for t, reward in enumerate([1.0, 2.0, 4.0]):  # as _play, with next observations that name the step
+        last = t == 2
+        buffer.add(
+            np.zeros((2, 2)), np.full((2, 2), 10.0 + t), np.zeros((2, 2)), np.array([reward, reward]),
+            np.array([last, last]), [{}, {"TimeLimit.truncated": last}],
+        )  # fmt: skip
+    sums = [1 + GAMMA * 2 + GAMMA**2 * 4, 2 + GAMMA * 4, 4.0]
+    for env in (0, 1):  # the rewards are summed either way; both episodes have a return
+        np.testing.assert_allclose(buffer.mc_returns[:3, env, 0], sums, rtol=1e-6)
+        np.testing.assert_array_equal(buffer.mc_valid[:3, env], 1.0)
+    np.testing.assert_array_equal(buffer.mc_tail_discount[:3, 0], 0.0)  # terminated: nothing after
+    np.testing.assert_allclose(buffer.mc_tail_discount[:3, 1], [GAMMA**3, GAMMA**2, GAMMA], rtol=1e-6)
+    samples = buffer._gather(np.array([0, 1, 2, 0]), np.array([1, 1, 1, 0]))
+    np.testing.assert_array_equal(samples.mc_tail_observations[:3].numpy(), 12.0)  # s_{T+1}, the cut's
+    np.testing.assert_allclose(samples.mc_tail_discount[:, 0].numpy(), [GAMMA**3, GAMMA**2, GAMMA, 0.0])
+    # the next episode of env 1 ends by termination: its steps get no bootstrap
+    buffer.add(np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 2)), np.array([8.0, 8.0]),
+               np.array([True, True]), [{}, {}])  # fmt: skip
+    assert buffer.mc_tail_discount[3, 1] == 0.0 and buffer.mc_valid[3, 1] == 1.0
+    summed = _buffer()
+    _play(summed)
+    assert summed.sample(2).mc_tail_observations is None  # "sum": no extra fields
+
+
 def test_bad_mc_truncated_is_a_clear_error() -> None:
-    with pytest.raises(ValueError, match=r"mc_truncated must be one of \['sum', 'skip'\]"):
-        _buffer(mc_truncated="bootstrap")
-    with pytest.raises(ValueError, match="needs handle_timeout_termination=True"):
-        _buffer(mc_truncated="skip", handle_timeout_termination=False)
+    with pytest.raises(ValueError, match=r"mc_truncated must be one of \['sum', 'skip', 'bootstrap'\]"):
+        _buffer(mc_truncated="nstep")
+    for way in ("skip", "bootstrap"):
+        with pytest.raises(ValueError, match=f"mc_truncated='{way}' needs handle_timeout_termination=True"):
+            _buffer(mc_truncated=way, handle_timeout_termination=False)
 
 
 def test_the_option_reaches_the_model_buffer() -> None:

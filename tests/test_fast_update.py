@@ -39,7 +39,12 @@ def _reference_update(model: CommDDPG, ref, data, max_grad_norm: float, beta: fl
         target = (
             data.rewards + (1.0 - data.dones) * model.gamma * ref.q_values(next_obs, next_out, target=True)[0]
         )
-        mixed = beta * data.mc_returns + (1.0 - beta) * target
+        mc_returns = data.mc_returns
+        if data.mc_tail_observations is not None:  # mc_truncated="bootstrap": the value at the cut
+            tail = data.mc_tail_observations
+            tail_out = ref.actor_outputs(tail, target=True).clamp(-1.0, 1.0)
+            mc_returns = mc_returns + data.mc_tail_discount * ref.q_values(tail, tail_out, target=True)[0]
+        mixed = beta * mc_returns + (1.0 - beta) * target
         target = th.where(data.mc_valid.bool(), mixed, target)
     critic_loss = F.mse_loss(ref.q_values(obs, actions)[0], target)
     critic_opt.zero_grad()
@@ -57,16 +62,20 @@ def _reference_update(model: CommDDPG, ref, data, max_grad_norm: float, beta: fl
                 p_target.mul_(1.0 - model.tau).add_(p, alpha=model.tau)
 
 
-@pytest.mark.parametrize("method", ["NONE", "RIAL"])
-def test_one_fast_update_equals_the_reference(method: str) -> None:
+@pytest.mark.parametrize(
+    ("method", "mc_truncated"), [("NONE", "sum"), ("RIAL", "sum"), ("NONE", "bootstrap")]
+)
+def test_one_fast_update_equals_the_reference(method: str, mc_truncated: str) -> None:
     env = make_vec_env(coin_env, n_envs=2, seed=0)
     model = CommDDPG(
         method, env, batch_size=16, learning_starts=20, seed=0, tau=0.05, max_grad_norm=0.5, mc_mixing=0.5,
-        policy_kwargs={"net_arch": [16, 16]},
+        policy_kwargs={"net_arch": [16, 16]}, replay_buffer_kwargs={"mc_truncated": mc_truncated},
     )  # fmt: skip
     model.learn(60)
     assert model.policy.critic.optimizer.param_groups[0]["fused"] is True
     data = model.replay_buffer.sample(16)
+    if mc_truncated == "bootstrap":  # the coin game is cut by its time limit: every return has a tail
+        assert bool((data.mc_tail_discount[data.mc_valid.bool()] > 0).all()) and bool(data.mc_valid.any())
     model.replay_buffer.sample = lambda *args, **kwargs: data  # the same batch for both
     ref = copy.deepcopy(model.policy)
     _reference_update(model, ref, data, max_grad_norm=0.5)

@@ -106,6 +106,40 @@ def test_samples_are_relabelled_and_the_random_draws_are_unchanged() -> None:
     ).abs().max() > 1e-3
 
 
+def test_the_states_at_the_time_limits_cuts_are_relabelled_too() -> None:
+    """With ``mc_truncated="bootstrap"`` a sample also carries the state at its episode's cut: it
+    hears what the current GSN sends for the cut's observations, like ``next_observations``."""
+    model = collected(mc_mixing=0.5, replay_buffer_kwargs={"mc_truncated": "bootstrap"})
+    buffer = model.replay_buffer
+    with th.no_grad():
+        for parameter in model.policy.gsn.message_extractor.parameters():
+            parameter.add_(0.3 * th.randn_like(parameter))
+    np.random.seed(3)
+    relabelled = buffer.sample(64)
+    buffer.message_relabeler = None
+    np.random.seed(3)
+    stored = buffer.sample(64)
+    cut = stored.mc_tail_discount[:, 0] > 0
+    assert bool(cut.any())  # Blind Soccer's untrained team is cut by the time limit
+    heard = model.comm_layout.obs_message_slice
+    rest = slice(0, heard.start)
+    tail, stored_tail = relabelled.mc_tail_observations, stored.mc_tail_observations
+    th.testing.assert_close(tail[..., rest], stored_tail[..., rest])
+    np.random.seed(3)
+    batch_inds = np.random.randint(0, buffer.buffer_size, size=64)
+    env_inds = np.random.randint(0, buffer.n_envs, size=64)
+    tails = buffer.mc_tail_positions[batch_inds, env_inds]  # the cut's transition: its next state
+    previous, has_previous = buffer.previous_observations(tails, env_inds)
+    _, expected = model.relabel_heard_messages(  # checked against the GSN's messages above
+        buffer.to_torch(buffer.observations[tails, env_inds]),
+        stored.mc_tail_observations,
+        buffer.to_torch(previous),
+        buffer.to_torch(has_previous.astype(np.float32)),
+    )
+    th.testing.assert_close(tail[cut], expected[cut])
+    assert (tail[cut][..., heard] - stored_tail[cut][..., heard]).abs().max() > 1e-3
+
+
 def test_the_option_survives_save_and_load_and_is_not_pickled_with_the_buffer(tmp_path) -> None:
     model = collected(steps=120)
     model.save(tmp_path / "model.zip")

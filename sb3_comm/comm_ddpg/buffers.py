@@ -118,7 +118,18 @@ class JointReplayBuffer(MonteCarloReplayBuffer):
             self.to_torch(previous),
             self.to_torch(has_previous.astype(np.float32)),
         )
-        return samples._replace(observations=observations, next_observations=next_observations)
+        samples = samples._replace(observations=observations, next_observations=next_observations)
+        if samples.mc_tail_observations is not None:  # the states at the time limits' cuts, likewise
+            tail_inds = self.mc_tail_positions[batch_inds, env_inds]
+            previous, has_previous = self.previous_observations(tail_inds, env_inds)
+            _, tail = relabel(
+                self.to_torch(self.observations[tail_inds, env_inds]),
+                samples.mc_tail_observations,
+                self.to_torch(previous),
+                self.to_torch(has_previous.astype(np.float32)),
+            )
+            samples = samples._replace(mc_tail_observations=tail)
+        return samples
 
     @property
     def reward_width(self) -> int:

@@ -21,7 +21,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 
 __all__ = ["MC_TRUNCATED", "MonteCarloReplayBuffer", "MonteCarloReplayBufferSamples"]
 
-MC_TRUNCATED = ("sum", "skip")
+MC_TRUNCATED = ("sum", "skip", "bootstrap")
 """What a time-limit cut gives the Monte-Carlo returns of its episode (:class:`MonteCarloReplayBuffer`)."""
 
 
@@ -35,6 +35,10 @@ class MonteCarloReplayBufferSamples(NamedTuple):
     rewards: th.Tensor  # (B, 1) or (B, n_agents)
     mc_returns: th.Tensor  # like rewards; valid where mc_valid is 1
     mc_valid: th.Tensor  # (B, 1)
+    # mc_truncated="bootstrap" only (None otherwise): the next observation at the time limit's cut
+    # of the transition's episode, and the discount γ^(T−t+1) of its value (0: the episode ended)
+    mc_tail_observations: th.Tensor | None = None  # like observations
+    mc_tail_discount: th.Tensor | None = None  # (B, 1)
 
 
 class MonteCarloReplayBuffer(BaseBuffer):
@@ -52,8 +56,12 @@ class MonteCarloReplayBuffer(BaseBuffer):
     :param mc_truncated: what an episode cut by a time limit (``TimeLimit.truncated``) gives its
         transitions: ``"sum"`` (the reference code's way and the default) sums its rewards as if it
         had ended there, a return biased towards 0 the closer the cut; ``"skip"`` gives them no
-        Monte-Carlo return, so that they train on the TD target alone (``mc_valid`` 0). Needs
-        ``handle_timeout_termination``.
+        Monte-Carlo return, so that they train on the TD target alone (``mc_valid`` 0);
+        ``"bootstrap"`` completes their sum at the cut by the value of the state there,
+        ``G_t = Σ_{k=t}^{T} γ^{k−t} r_k + γ^{T−t+1} V(s_{T+1})``: the samples carry that state
+        (``mc_tail_observations``) and its discount (``mc_tail_discount``), and the learner adds
+        the target critic's value, so that a cut episode gets an n-step return instead of a sum
+        biased towards 0. ``"skip"`` and ``"bootstrap"`` need ``handle_timeout_termination``.
     """
 
     mc_truncated: str = "sum"  # buffers pickled before the option existed load with the old way
@@ -75,8 +83,10 @@ class MonteCarloReplayBuffer(BaseBuffer):
             raise ValueError(f"{type(self).__name__} does not support optimize_memory_usage=True")
         if mc_truncated not in MC_TRUNCATED:
             raise ValueError(f"mc_truncated must be one of {list(MC_TRUNCATED)}, got {mc_truncated!r}")
-        if mc_truncated == "skip" and not handle_timeout_termination:
-            raise ValueError("mc_truncated='skip' needs handle_timeout_termination=True (the time limits)")
+        if mc_truncated != "sum" and not handle_timeout_termination:
+            raise ValueError(
+                f"mc_truncated={mc_truncated!r} needs handle_timeout_termination=True (the time limits)"
+            )
         self.mc_truncated = mc_truncated
         super().__init__(buffer_size, observation_space, action_space, device, n_envs=n_envs)
         self.buffer_size = max(buffer_size // n_envs, 1)
@@ -94,6 +104,11 @@ class MonteCarloReplayBuffer(BaseBuffer):
         self.timeouts = np.zeros(steps, dtype=np.float32)
         self.mc_returns = np.zeros((*steps, self.reward_width), dtype=np.float32)
         self.mc_valid = np.zeros(steps, dtype=np.float32)
+        if mc_truncated == "bootstrap":
+            self.mc_tail_positions = np.zeros(steps, dtype=np.int64)
+            """(steps, n_envs) buffer position of the last transition of a cut episode."""
+            self.mc_tail_discount = np.zeros(steps, dtype=np.float32)
+            """(steps, n_envs) γ^(T−t+1) where the episode was cut at T, else 0."""
         self._episode_positions: list[list[int]] = [[] for _ in range(n_envs)]
 
     @property
@@ -126,6 +141,8 @@ class MonteCarloReplayBuffer(BaseBuffer):
         self.rewards[p] = self.step_rewards(reward, infos)
         self.dones[p] = done
         self.mc_valid[p] = 0.0
+        if self.mc_truncated == "bootstrap":
+            self.mc_tail_discount[p] = 0.0
         if self.handle_timeout_termination:
             self.timeouts[p] = [info.get("TimeLimit.truncated", False) for info in infos]
         if self.store_mc_returns:
@@ -142,11 +159,17 @@ class MonteCarloReplayBuffer(BaseBuffer):
             if done[env] and self.mc_truncated == "skip" and self.timeouts[position, env]:
                 self._episode_positions[env] = []  # cut by the time limit: TD target only
             elif done[env]:
+                positions = self._episode_positions[env]
                 running = np.zeros(self.reward_width, dtype=np.float32)
-                for p in reversed(self._episode_positions[env]):
+                for p in reversed(positions):
                     running = self.rewards[p, env] + self.gamma * running
                     self.mc_returns[p, env] = running
                     self.mc_valid[p, env] = 1.0
+                if self.mc_truncated == "bootstrap" and self.timeouts[position, env]:
+                    # the cut's value, discounted from each step: γ for the last, γ² before it, …
+                    steps_to_cut = np.arange(len(positions), 0, -1, dtype=np.float64)
+                    self.mc_tail_discount[positions, env] = self.gamma**steps_to_cut
+                    self.mc_tail_positions[positions, env] = position
                 self._episode_positions[env] = []
 
     def close_open_episodes(self) -> None:
@@ -172,6 +195,12 @@ class MonteCarloReplayBuffer(BaseBuffer):
     def _gather(self, batch_inds: np.ndarray, env_inds: np.ndarray) -> MonteCarloReplayBufferSamples:
         """The transitions at steps ``batch_inds`` of envs ``env_inds``, as tensors."""
         dones = self.dones[batch_inds, env_inds] * (1.0 - self.timeouts[batch_inds, env_inds])
+        tail: tuple[np.ndarray, ...] = ()
+        if self.mc_truncated == "bootstrap":
+            tail = (
+                self.next_observations[self.mc_tail_positions[batch_inds, env_inds], env_inds],
+                self.mc_tail_discount[batch_inds, env_inds].reshape(-1, 1),
+            )
         data = (
             self.observations[batch_inds, env_inds],
             self.actions[batch_inds, env_inds],
@@ -180,5 +209,6 @@ class MonteCarloReplayBuffer(BaseBuffer):
             self.rewards[batch_inds, env_inds],
             self.mc_returns[batch_inds, env_inds],
             self.mc_valid[batch_inds, env_inds].reshape(-1, 1),
+            *tail,
         )
         return MonteCarloReplayBufferSamples(*(self.to_torch(array) for array in data))

@@ -402,15 +402,17 @@ class HybridDDPG(TD3):
 
             # critic target
             with th.no_grad():
-                next_out = policy.actor_outputs(next_obs, target=True)
-                if self.target_policy_noise > 0:
-                    noise = th.randn_like(next_out) * self.target_policy_noise
-                    next_out = next_out + noise.clamp(-self.target_noise_clip, self.target_noise_clip)
-                next_out = next_out.clamp(-1.0, 1.0)
-                next_q = th.stack(policy.q_values(next_obs, next_out, target=True)).min(dim=0).values
+                tail = data.mc_tail_observations if mc_mixing > 0 else None
+                if tail is None:
+                    next_q = self._target_values(next_obs)
+                else:  # the states at the time limits' cuts in the same pass (mc_truncated="bootstrap")
+                    next_q, tail_q = self._target_values(th.cat([next_obs, tail])).chunk(2)
                 target_q = data.rewards + (1.0 - data.dones) * self.gamma * next_q
                 if mc_mixing > 0:
-                    mixed = mc_mixing * data.mc_returns + (1.0 - mc_mixing) * target_q
+                    mc_returns = data.mc_returns
+                    if tail is not None:
+                        mc_returns = mc_returns + data.mc_tail_discount * tail_q
+                    mixed = mc_mixing * mc_returns + (1.0 - mc_mixing) * target_q
                     target_q = th.where(data.mc_valid.bool(), mixed, target_q)
 
             # critic loss
@@ -442,6 +444,17 @@ class HybridDDPG(TD3):
 
         if gradient_steps > 0:  # the agent's own update, without the method's extra networks
             log.add("time/agent_update_ms", 1000.0 * (time.perf_counter() - began), count=gradient_steps)
+
+    def _target_values(self, next_obs: th.Tensor) -> th.Tensor:
+        """``min_k Q'_k(s', μ'(s') + ε)``: the target critics' value of the target actor's outputs
+        (TD3's clipped noise ε where ``target_policy_noise`` > 0), the bootstrap of a critic target."""
+        policy = self.policy
+        next_out = policy.actor_outputs(next_obs, target=True)
+        if self.target_policy_noise > 0:
+            noise = th.randn_like(next_out) * self.target_policy_noise
+            next_out = next_out + noise.clamp(-self.target_noise_clip, self.target_noise_clip)
+        next_out = next_out.clamp(-1.0, 1.0)
+        return th.stack(policy.q_values(next_obs, next_out, target=True)).min(dim=0).values
 
     def _next_batch(self, batch_size: int) -> MonteCarloReplayBufferSamples:
         """The batch of the next update: a uniform sample of the replay buffer."""
