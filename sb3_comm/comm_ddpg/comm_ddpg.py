@@ -142,7 +142,10 @@ class CommDDPG(HybridDDPG):
         (reference code: 0.5, on Blind Soccer what made learning stable, and what its packaged
         configuration uses; default: 0, the TD target: the Monte-Carlo return of an episode cut by
         a time limit is summed as if the episode had ended, which biases the critic on tasks whose
-        episodes are mostly truncated, see ``benchmarks/results/simple_reference_beta0.5.md``). A
+        episodes are mostly truncated, see ``benchmarks/results/simple_reference_beta0.5.md``;
+        ``replay_buffer_kwargs={"mc_truncated": "bootstrap"}`` completes it at the cut instead,
+        which removes that bias, but β = 0.5 still cost TCG most of Guess My Number, see
+        ``benchmarks/results/stability_pilot_defaults_gmn_tcg_beta0.5_bootstrap.md``). A
         callable is a schedule of the remaining progress (1 -> 0), as the learning rates
         (``"lin_0.5"`` in a configuration: β decays linearly to 0).
     :param tcg_gain: scale of the teammate's gradient that trains TCG messages.

@@ -124,7 +124,8 @@ class HybridDDPG(TD3):
         (reference code: 0.5, what the packaged configurations use; default: 0, the TD target:
         the Monte-Carlo return of an episode cut by a time limit is summed as if the episode had
         ended, which biases the critic on tasks whose episodes are mostly truncated, see
-        ``benchmarks/results/simple_reference_beta0.5.md``). A callable is a schedule of the
+        ``benchmarks/results/simple_reference_beta0.5.md``; the replay's ``mc_truncated="bootstrap"``
+        completes it at the cut by the target critics' value). A callable is a schedule of the
         remaining progress (1 -> 0), as the learning rates (``"lin_0.5"`` in a configuration: β decays
         linearly to 0; on Blind Soccer this made the final team worse,
         ``benchmarks/results/stability_pilot_bs_gsn_beta_lin.md``).
