@@ -94,3 +94,18 @@ def test_the_option_reaches_the_model_buffer() -> None:
     model.learn(10)
     assert model.replay_buffer.mc_truncated == "skip"
     np.testing.assert_array_equal(model.replay_buffer.mc_valid[:5], 0.0)  # the coin game is cut at 4
+
+
+def test_a_buffer_that_treats_cut_episodes_otherwise_is_refused(tmp_path) -> None:
+    """A saved replay whose cut episodes carry another kind of Monte-Carlo return does not replace
+    the model's silently (the targets would change): the error names both."""
+    env = make_vec_env(coin_env, n_envs=2, seed=0)
+    summed = CommDDPG("NONE", env, mc_mixing=0.5, seed=0)
+    summed.learn(10)
+    summed.save_replay_buffer(tmp_path / "summed.pkl")
+    completed = CommDDPG("NONE", env, mc_mixing=0.5, replay_buffer_kwargs={"mc_truncated": "bootstrap"})
+    before = completed.replay_buffer
+    with pytest.raises(ValueError, match=r"mc_truncated 'sum' \(model: 'bootstrap'\).*unchanged"):
+        completed.load_replay_buffer(tmp_path / "summed.pkl")
+    assert completed.replay_buffer is before
+    CommDDPG("NONE", env, mc_mixing=0.5).load_replay_buffer(tmp_path / "summed.pkl")  # the same way: fits

@@ -525,7 +525,8 @@ class HybridDDPG(TD3):
 
         The loaded buffer must be of this model's kind: its class (a :class:`MonteCarloReplayBuffer`,
         a :class:`~sb3_comm.comm_ddpg.buffers.JointReplayBuffer` for a team), observation and action
-        shapes, parallel games, agents and Monte-Carlo returns (with the same γ). Otherwise a
+        shapes, parallel games, agents and Monte-Carlo returns (with the same γ and the same
+        ``mc_truncated``: what an episode cut by a time limit gets). Otherwise a
         ``ValueError`` names every difference and the model keeps its buffer. Episodes that were
         still running when the buffer was saved are closed without a Monte-Carlo return (the
         environment restarts; their transitions keep the TD target).
@@ -582,6 +583,9 @@ class HybridDDPG(TD3):
         ]
         if buffer.store_mc_returns and buffer.gamma != self.gamma:
             problems.append(f"Monte-Carlo returns discounted with gamma {buffer.gamma} (model: {self.gamma})")
+        wanted_cut = getattr(reference, "mc_truncated", "sum")
+        if buffer.store_mc_returns and self.uses_mc_returns and buffer.mc_truncated != wanted_cut:
+            problems.append(f"mc_truncated {buffer.mc_truncated!r} (model: {wanted_cut!r})")
         return problems
 
     # ------------------------------------------------------------- weights without pickle --
