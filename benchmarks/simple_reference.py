@@ -44,6 +44,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import RESULTS_DIR, write_results
 
+from sb3_comm.common.hyperparams import algorithm_kwargs
 from sb3_comm.foreign.simple_reference import ENV_ID
 from sb3_comm.results import to_jsonable, write_json
 
@@ -125,7 +126,8 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
             return True
 
     env = _vec_env(job["n_envs"], seed, channel, batched, perfect)
-    model = CommDDPG(method, env, seed=seed, device="cpu", **job.get("params", {}))
+    # 'lin_<start>' learning rates (and mc_mixing) become linear schedules, as in a config file
+    model = CommDDPG(method, env, seed=seed, device="cpu", **algorithm_kwargs(job.get("params", {})))
     began = time.perf_counter()
     model.learn(job["timesteps"], callback=Curve())
     seconds = time.perf_counter() - began - eval_seconds[0]
@@ -287,7 +289,11 @@ def main() -> None:
     parser.add_argument("--summary-only", action="store_true", help="summarise the runs present, train none")
     parser.add_argument("--note", default="", help="a paragraph added to the Markdown summary")
     parser.add_argument(
-        "--params", nargs="*", default=[], help="constructor arguments key=value (YAML values), else defaults"
+        "--params",
+        nargs="*",
+        default=[],
+        help="constructor arguments key=value (YAML values; learning rates and mc_mixing may be "
+        "'lin_<start>', a linear schedule to 0), else defaults",
     )
     args = parser.parse_args()
     import yaml
@@ -298,6 +304,10 @@ def main() -> None:
         if not sep:
             parser.error(f"--params takes key=value, got {item!r}")
         params[key] = yaml.safe_load(value)
+    try:
+        algorithm_kwargs(params)  # a malformed 'lin_' schedule stops here, before any run
+    except ValueError as error:
+        parser.error(f"--params: {error}")
     args.constructor_params = params
     if args.perfect_channel and not args.batched:
         parser.error("--perfect-channel needs the batched game (drop --no-batched)")

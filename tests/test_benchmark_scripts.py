@@ -86,3 +86,20 @@ def test_simple_reference_perfect_channel_hears_the_own_target():
         plain_rows, *_ = plain.step(action)
     with pytest.raises(ValueError, match="needs --channel-size >= 3"):
         module._vec_env(2, 0, 2, batched=True, perfect_channel=True)
+
+
+def test_simple_reference_params_take_linear_schedules_as_a_config_file_does(tmp_path, monkeypatch, capsys):
+    """``--params learning_rate=lin_1e-3`` trains with a schedule (it raised a TypeError before);
+    the run's record keeps the text form."""
+    module = _load(BENCHMARKS / "simple_reference.py")
+    params = {"learning_rate": "lin_1e-3", "actor_learning_rate": "lin_1e-4", "learning_starts": 20}
+    job = {
+        "method": "NONE", "seed": 0, "channel_size": 4, "batched": True, "n_envs": 2, "timesteps": 40,
+        "eval_freq": 10**9, "runs_dir": str(tmp_path), "params": params,
+    }  # fmt: skip
+    result = module.run_one(job)
+    assert result["params"] == params and (tmp_path / "NONE_seed0.json").exists()
+    monkeypatch.setattr("sys.argv", ["simple_reference.py", "--params", "learning_rate=lin_x"])
+    with pytest.raises(SystemExit):  # a malformed schedule stops the command before any run
+        module.main()
+    assert "'lin_x' is not a linear schedule" in capsys.readouterr().err
