@@ -28,6 +28,26 @@ def collected(method: str = "GSN", steps: int = 440, **kwargs) -> CommDDPG:
     return model
 
 
+def perturb_gsn(model: CommDDPG) -> None:
+    """Move the message network away from the one that acted (and sent the stored messages)."""
+    with th.no_grad():
+        for parameter in model.policy.gsn.message_extractor.parameters():
+            parameter.add_(0.3 * th.randn_like(parameter))
+
+
+def relabelled_and_stored(buffer, seed: int, batch_size: int):
+    """The same sample (same random draws) with the buffer's relabeler and without it, which then
+    stays detached; the relabelling draws no random numbers of its own."""
+    np.random.seed(seed)
+    relabelled = buffer.sample(batch_size)
+    after = np.random.random()
+    buffer.message_relabeler = None
+    np.random.seed(seed)
+    stored = buffer.sample(batch_size)
+    assert np.random.random() == after
+    return relabelled, stored
+
+
 def every_transition(model: CommDDPG):
     buffer = model.replay_buffer
     steps = np.arange(buffer.buffer_size).repeat(buffer.n_envs)
@@ -62,9 +82,7 @@ def test_with_the_acting_gsn_relabelling_gives_the_stored_messages() -> None:
 def test_a_changed_gsn_changes_only_the_heard_messages() -> None:
     model = collected()
     data, previous, has_previous = every_transition(model)
-    with th.no_grad():
-        for parameter in model.policy.gsn.message_extractor.parameters():
-            parameter.add_(0.3 * th.randn_like(parameter))
+    perturb_gsn(model)
     obs, next_obs = model.relabel_heard_messages(
         data.observations, data.next_observations, previous, has_previous
     )
@@ -86,16 +104,8 @@ def test_a_changed_gsn_changes_only_the_heard_messages() -> None:
 def test_samples_are_relabelled_and_the_random_draws_are_unchanged() -> None:
     model = collected()
     buffer = model.replay_buffer
-    with th.no_grad():
-        for parameter in model.policy.gsn.message_extractor.parameters():
-            parameter.add_(0.3 * th.randn_like(parameter))
-    np.random.seed(5)
-    relabelled = buffer.sample(32)
-    after = np.random.random()
-    buffer.message_relabeler = None
-    np.random.seed(5)
-    stored = buffer.sample(32)
-    assert np.random.random() == after
+    perturb_gsn(model)
+    relabelled, stored = relabelled_and_stored(buffer, seed=5, batch_size=32)
     heard = model.comm_layout.obs_message_slice
     th.testing.assert_close(relabelled.actions, stored.actions)
     th.testing.assert_close(
@@ -111,14 +121,8 @@ def test_the_states_at_the_time_limits_cuts_are_relabelled_too() -> None:
     hears what the current GSN sends for the cut's observations, like ``next_observations``."""
     model = collected(mc_mixing=0.5, replay_buffer_kwargs={"mc_truncated": "bootstrap"})
     buffer = model.replay_buffer
-    with th.no_grad():
-        for parameter in model.policy.gsn.message_extractor.parameters():
-            parameter.add_(0.3 * th.randn_like(parameter))
-    np.random.seed(3)
-    relabelled = buffer.sample(64)
-    buffer.message_relabeler = None
-    np.random.seed(3)
-    stored = buffer.sample(64)
+    perturb_gsn(model)
+    relabelled, stored = relabelled_and_stored(buffer, seed=3, batch_size=64)
     cut = stored.mc_tail_discount[:, 0] > 0
     assert bool(cut.any())  # Blind Soccer's untrained team is cut by the time limit
     heard = model.comm_layout.obs_message_slice

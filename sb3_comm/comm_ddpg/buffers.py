@@ -108,28 +108,29 @@ class JointReplayBuffer(MonteCarloReplayBuffer):
     ) -> JointReplayBufferSamples:
         env_inds = np.random.randint(0, high=self.n_envs, size=(len(batch_inds),))
         samples = self._gather(batch_inds, env_inds)
-        relabel = self.message_relabeler
-        if relabel is None:
+        if self.message_relabeler is None:
             return samples
-        previous, has_previous = self.previous_observations(batch_inds, env_inds)
-        observations, next_observations = relabel(
-            samples.observations,
-            samples.next_observations,
-            self.to_torch(previous),
-            self.to_torch(has_previous.astype(np.float32)),
+        observations, next_observations = self._relabelled(
+            samples.observations, samples.next_observations, batch_inds, env_inds
         )
         samples = samples._replace(observations=observations, next_observations=next_observations)
         if samples.mc_tail_observations is not None:  # the states at the time limits' cuts, likewise
             tail_inds = self.mc_tail_positions[batch_inds, env_inds]
-            previous, has_previous = self.previous_observations(tail_inds, env_inds)
-            _, tail = relabel(
-                self.to_torch(self.observations[tail_inds, env_inds]),
-                samples.mc_tail_observations,
-                self.to_torch(previous),
-                self.to_torch(has_previous.astype(np.float32)),
-            )
+            tail_obs = self.to_torch(self.observations[tail_inds, env_inds])
+            _, tail = self._relabelled(tail_obs, samples.mc_tail_observations, tail_inds, env_inds)
             samples = samples._replace(mc_tail_observations=tail)
         return samples
+
+    def _relabelled(
+        self, obs: th.Tensor, next_obs: th.Tensor, batch_inds: np.ndarray, env_inds: np.ndarray
+    ) -> tuple[th.Tensor, th.Tensor]:
+        """``obs`` and ``next_obs`` of the transitions at ``batch_inds``/``env_inds``, with the heard
+        messages recomputed by :attr:`message_relabeler` (given their previous steps' rows)."""
+        assert self.message_relabeler is not None
+        previous, has_previous = self.previous_observations(batch_inds, env_inds)
+        return self.message_relabeler(
+            obs, next_obs, self.to_torch(previous), self.to_torch(has_previous.astype(np.float32))
+        )
 
     @property
     def reward_width(self) -> int:
