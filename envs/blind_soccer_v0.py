@@ -20,7 +20,7 @@ def parallel_env(render_mode: str | None = None, **kwargs: Any) -> CommParallelE
 
     :param render_mode: ``None`` or ``"rgb_array"``.
     :param kwargs: ``seed``, ``params``, ``noise``, ``max_steps``, ``channel_size``,
-        ``rules`` (``"paper"`` or ``"dqn-hfo"``).
+        ``rules`` (``"paper"`` or ``"dqn-hfo"``), ``time_feature``.
     """
     return CommParallelEnv(BlindSoccerTask, render_mode=render_mode, **kwargs)
 

@@ -60,6 +60,20 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
     return result
 
 
+def parse_env_kwargs(items: list[str] | None) -> dict[str, Any]:
+    """rl-zoo3's ``--env-kwargs key:value ...`` to a dict (values parsed as YAML: ``true``, numbers)."""
+    result: dict[str, Any] = {}
+    for item in items or []:
+        key, sep, value = item.partition(":")
+        if not sep or not key.strip():
+            raise ValueError(f"--env-kwargs {item!r} must look like key:value (e.g. time_feature:true)")
+        try:
+            result[key.strip()] = yaml.safe_load(value)
+        except yaml.YAMLError as error:
+            raise ValueError(f"--env-kwargs {item!r}: the value {value!r} is not valid YAML") from error
+    return result
+
+
 def _fresh_dir(base: Path, option: str) -> Path:
     """Create and return ``base`` or, if it exists, ``base_1``, ``base_2``, ... (never reuse a folder)."""
     candidate, k = base, 1
@@ -209,6 +223,7 @@ _RUN_FLAGS = {
     "seed": "--seed",
     "conf": "--conf",
     "params": "--params",
+    "env_kwargs": "--env-kwargs",
     "eval_freq": "--eval-freq",
     "eval_episodes": "--eval-episodes",
     "save_freq": "--save-freq",
@@ -298,6 +313,9 @@ def _new_run(args: argparse.Namespace) -> tuple[Any, Path]:
         )
     else:
         config = RunConfig.load(args.method, env_id, seed=seed, path=args.conf, overrides=overrides)
+    if args.env_kwargs:  # added to (and over) the file's task options
+        options = {**config.env_kwargs, **parse_env_kwargs(args.env_kwargs)}
+        config = config.with_overrides({"env_kwargs": options})
     run_name = f"{config.method}_seed{config.seed}"
     run_dir = _fresh_dir(Path(args.log_folder) / args.env / run_name, "--log-folder")
     print(
@@ -336,7 +354,10 @@ def _evaluate(args: argparse.Namespace) -> int:
     path = _model_file(args.model)
     env_id = _check_env_id(args.env or _env_of(path))
     model = _load_model(path, args.device)
-    result = evaluate_team(model, env_id, n_episodes=args.episodes, seed=args.seed, ablation=args.ablation)
+    options = _env_kwargs_of(path, env_id)
+    result = evaluate_team(
+        model, env_id, n_episodes=args.episodes, seed=args.seed, ablation=args.ablation, env_kwargs=options
+    )
     print(
         json.dumps(
             {"env": env_id, "method": model.method, "ablation": args.ablation, **result.summary()}, indent=2
@@ -345,7 +366,9 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.projector is not None:
         from sb3_comm.tensorboard import write_projector
 
-        folder = write_projector(model, env_id, args.projector, n_episodes=args.episodes, seed=args.seed)
+        folder = write_projector(
+            model, env_id, args.projector, n_episodes=args.episodes, seed=args.seed, env_kwargs=options
+        )
         print(f"Projector: tensorboard --logdir {folder}  (PROJECTOR tab)")
     return 0
 
@@ -363,7 +386,7 @@ def _record_video(args: argparse.Namespace) -> int:
         raise ValueError(f"--output {out}: the folder {out.parent} does not exist (or is not a folder)")
     env_id = _check_env_id(args.env or _env_of(model_path))
     model = _load_model(model_path, args.device)
-    env = gym.make(env_id, render_mode="rgb_array")
+    env = gym.make(env_id, render_mode="rgb_array", **_env_kwargs_of(model_path, env_id))
     layout = model.comm_layout
 
     def policy(obs: np.ndarray) -> np.ndarray:
@@ -458,6 +481,21 @@ def _env_of(model_path: Path) -> str:
     raise ValueError(f"Cannot tell the environment of {model_path} (no run config.yml beside it): pass --env")
 
 
+def _env_kwargs_of(model_path: Path, env_id: str) -> dict[str, Any]:
+    """The task options the run beside ``model_path`` trained with on ``env_id`` (its config.yml's
+    ``env_kwargs``), so that a model is evaluated on the task it learned; {} without a run config."""
+    config = model_path.parent / "config.yml"
+    if not config.is_file():
+        return {}
+    try:
+        entries = yaml.safe_load(config.read_text())
+    except yaml.YAMLError as error:
+        raise ValueError(f"{config} is not valid YAML") from error
+    entry = entries.get(env_id) if isinstance(entries, dict) else None
+    options = entry.get("env_kwargs") if isinstance(entry, dict) else None
+    return dict(options) if isinstance(options, dict) else {}
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``sb3-comm`` argument parser."""
     from sb3_comm.comm_ddpg import METHODS
@@ -488,6 +526,12 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--seed", type=int, default=None, help="training seed (default 0)")
     train.add_argument("--conf", "-conf", default=None, help="hyperparameter YAML (default: packaged)")
     train.add_argument("--params", "-params", nargs="*", help="overrides key=value")
+    train.add_argument(
+        "--env-kwargs",
+        nargs="*",
+        default=None,
+        help="task options key:value, as rl-zoo3 (e.g. time_feature:true); added to the file's env_kwargs",
+    )
     train.add_argument("--log-folder", "-f", default="runs", help="where run folders go")
     train.add_argument(
         "--eval-freq", type=_count(1), default=None, help="evaluate every N env steps (default 25000)"

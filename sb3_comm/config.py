@@ -1,7 +1,9 @@
 """Run configurations: rl-zoo-style hyperparameter files, read and checked once.
 
 A hyperparameter file maps environment ids to CommDDPG arguments plus rl-zoo3's ``n_envs``,
-``n_timesteps`` and ``policy`` (the method). The packaged files live in the repository's
+``n_timesteps`` and ``policy`` (the method), and ``env_kwargs``: the task's own options (what
+rl-zoo3's ``--env-kwargs`` gives on its command line), e.g. ``env_kwargs: {time_feature: true}``.
+The packaged files live in the repository's
 ``zoo_configs/`` folder, one per method (``gsn.yml``, ``rial.yml``, ``tcg.yml``, ``none.yml``,
 ``gsn-max.yml``).
 
@@ -48,8 +50,9 @@ CONFIG_DIR = next(
 )
 """Folder of the packaged hyperparameter files."""
 
-ZOO_KEYS = ("policy", "n_envs", "n_timesteps")
-"""rl-zoo3 keys that are not CommDDPG arguments."""
+ZOO_KEYS = ("policy", "n_envs", "n_timesteps", "env_kwargs")
+"""Keys that are not CommDDPG arguments: rl-zoo3's ``policy``, ``n_envs`` and ``n_timesteps``, and
+``env_kwargs`` (the task's options)."""
 
 DEFAULT_N_ENVS = 1
 DEFAULT_N_TIMESTEPS = 100_000
@@ -138,6 +141,57 @@ def _whole(value: Any, key: str, where: str) -> int:
     return int(number)
 
 
+def _env_kwargs(value: Any, task: str, where: str) -> dict[str, Any]:
+    """``env_kwargs`` of an entry, checked against the task's options where sb3-comm builds it.
+
+    :raises ValueError: not a mapping, or an option the task does not take (naming those it does).
+    """
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise ValueError(
+            f"{where}: write env_kwargs as a YAML mapping of the task's options "
+            f"(e.g. 'env_kwargs: {{time_feature: true}}'), got {value!r}"
+        )
+    options = {str(key): item for key, item in value.items()}
+    accepted = task_options(task)
+    if accepted is not None:
+        unknown = sorted(set(options) - set(accepted))
+        if unknown:
+            raise ValueError(
+                f"{where}: env_kwargs has unknown option(s) {unknown}; {task} accepts: {accepted}"
+            )
+    return options
+
+
+_NOT_OPTIONS = ("self", "kwargs", "n_games", "autoreset", "seed", "params")
+"""Task arguments a file cannot set: the vectorised environment's own, the run's seed, and the
+server parameters (a Python object)."""
+
+
+def task_options(task: str) -> list[str] | None:
+    """The options ``env_kwargs`` may set for ``task`` when sb3-comm builds it (None: a task built
+    by Gymnasium, whose options only its constructor knows)."""
+    from envs.registry import TASKS
+    from envs.tasks.single_agent import SINGLE_AGENT_TASKS
+
+    if task in TASKS:
+        factory: Any = TASKS[task].batched_env
+    elif task in SINGLE_AGENT_TASKS:
+        factory = SINGLE_AGENT_TASKS[task]
+    elif task == "MPESimpleReference-v0":
+        from sb3_comm.foreign.batched_simple_reference import SimpleReferenceTask
+
+        factory = SimpleReferenceTask
+    else:
+        return None
+    params = inspect.signature(factory).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        factory = type(factory(n_games=1))  # a task module's batched_env(**kwargs): ask its class
+        params = inspect.signature(factory).parameters
+    return sorted(name for name in params if name not in _NOT_OPTIONS)
+
+
 @dataclass(frozen=True)
 class RunConfig:
     """One training run's configuration, checked (see the module docstring).
@@ -149,6 +203,8 @@ class RunConfig:
     :param hyperparams: CommDDPG keyword arguments in text form (``lin_0.001``, numbers, mappings).
     :param seed: training seed.
     :param source: the file the settings came from, if any.
+    :param env_kwargs: the task's options (``make_comm_vec_env``'s ``env_kwargs``), for training and
+        for every evaluation of the run.
     """
 
     method: str
@@ -158,6 +214,7 @@ class RunConfig:
     hyperparams: dict[str, Any] = field(default_factory=dict)
     seed: int = 0
     source: str | None = None
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
     def from_entry(
@@ -188,11 +245,13 @@ class RunConfig:
             )
         n_envs = _whole(settings.pop("n_envs", DEFAULT_N_ENVS), "n_envs", where)
         n_timesteps = _whole(settings.pop("n_timesteps", DEFAULT_N_TIMESTEPS), "n_timesteps", where)
+        env_kwargs = _env_kwargs(entry.get("env_kwargs", {}), task, where)
+        settings.pop("env_kwargs", None)
         try:  # the algorithm's own checks, on the values it will receive, before anything is built
             check_hyperparameters(algorithm_kwargs(settings))
         except (TypeError, ValueError) as error:
             raise ValueError(f"{where}: {error}") from None
-        return cls(method, task, n_envs, n_timesteps, settings, int(seed), source)
+        return cls(method, task, n_envs, n_timesteps, settings, int(seed), source, env_kwargs)
 
     @classmethod
     def load(
@@ -243,12 +302,14 @@ class RunConfig:
         return dataclasses.replace(config, source=self.source, seed=self.seed if seed is None else int(seed))
 
     def to_entry(self) -> dict[str, Any]:
-        """The entry as an rl-zoo3 file holds it: ``policy``, ``n_envs``, ``n_timesteps`` and the
-        hyperparameters in text form."""
+        """The entry as an rl-zoo3 file holds it: ``policy``, ``n_envs``, ``n_timesteps``,
+        ``env_kwargs`` (only when the task has options) and the hyperparameters in text form."""
+        options = {"env_kwargs": dict(self.env_kwargs)} if self.env_kwargs else {}
         return {
             "policy": self.method,
             "n_envs": self.n_envs,
             "n_timesteps": self.n_timesteps,
+            **options,
             **self.hyperparams,
         }
 

@@ -193,7 +193,9 @@ def build_model(config: RunConfig, env: VecEnv | None = None, **kwargs: Any) -> 
         ``device``, ``verbose``).
     """
     if env is None:
-        env = make_comm_vec_env(config.task, n_envs=config.n_envs, seed=config.seed)
+        env = make_comm_vec_env(
+            config.task, n_envs=config.n_envs, seed=config.seed, env_kwargs=config.env_kwargs
+        )
     return CommDDPG(config.method, env, seed=config.seed, **config.algorithm_kwargs(), **kwargs)
 
 
@@ -209,9 +211,12 @@ def _communication(
         from sb3_comm.analysis import analyse_communication, collect_rollout
 
         n, seed = settings.analysis_episodes, settings.analysis_seed
-        rollout = collect_rollout(model, config.task, n_episodes=n, seed=seed)
+        options = config.env_kwargs
+        rollout = collect_rollout(model, config.task, n_episodes=n, seed=seed, env_kwargs=options)
         rollout.save(run_dir / "messages.npz")
-        metrics = analyse_communication(model, config.task, n_episodes=n, seed=seed, rollout=rollout)
+        metrics = analyse_communication(
+            model, config.task, n_episodes=n, seed=seed, rollout=rollout, env_kwargs=options
+        )
         return to_jsonable(metrics), None
     except Exception:
         return None, traceback.format_exc()
@@ -338,7 +343,7 @@ def _resume_model(
             "it stopped before its first one; train it again"
         )
     checkpoint, buffer = found
-    env = make_comm_vec_env(config.task, n_envs=config.n_envs, seed=config.seed)
+    env = make_comm_vec_env(config.task, n_envs=config.n_envs, seed=config.seed, env_kwargs=config.env_kwargs)
     model = CommDDPG.load(checkpoint, env=env, device=device, verbose=verbose)
     # No random state is saved: reseed away from the first session's draws, reproducibly.
     model.set_random_seed(config.seed + model.num_timesteps)
@@ -388,6 +393,7 @@ def _finish_tensorboard(
                 tb_dir,
                 n_episodes=settings.projector_episodes,
                 seed=settings.analysis_seed,
+                env_kwargs=config.env_kwargs,
             )
     except Exception as error:
         warnings.warn(
@@ -581,6 +587,7 @@ def _train(
         log_path=run_dir / "evaluations.json",
         history=history,
         verbose=eval_verbose,
+        env_kwargs=config.env_kwargs,
         video_every=settings.video_every,
     )
     run_callbacks: list[BaseCallback] = [evaluator]
@@ -631,7 +638,12 @@ def _train(
         evaluator.evaluate()  # the curve ends where training ended
     final = {
         ablation: evaluate_team(
-            model, config.task, n_episodes=settings.episodes, seed=settings.final_seed, ablation=ablation
+            model,
+            config.task,
+            n_episodes=settings.episodes,
+            seed=settings.final_seed,
+            ablation=ablation,
+            env_kwargs=config.env_kwargs,
         ).summary()
         for ablation in settings.ablations
     }

@@ -12,7 +12,8 @@ vector, ``[HFO action (8) | outgoing message (channel_size)]``, and
    entries of its teammate's observation at step t+1 (zeros at the first step of an episode),
 6. with ``autoreset=True`` resets the games that ended and returns their first observation.
 
-The observation of an agent is ``[HFO low-level features | task entries | received message]``.
+The observation of an agent is ``[HFO low-level features | task entries | remaining time |
+received message]``; the remaining time is there only with ``time_feature=True``.
 Subclasses choose the features (:meth:`_features`), the task entries (``_extra``), the rewards
 and the termination rule (:meth:`_evaluate`); see ``blind_soccer.py`` and ``guess_my_number.py``.
 The Gymnasium and PettingZoo classes are thin shells around this core.
@@ -76,6 +77,15 @@ class BatchedTask:
         default).
     :param ball_x_range: ball reset x range as fractions of the half length (``None``: the
         task's default).
+    :param time_feature: make the step limit part of the task's state ("time awareness", Pardo et
+        al. 2018, "Time Limits in Reinforcement Learning"): every agent observes the remaining
+        time ``1 - t / max_steps`` (1 at an episode's first observation, 0 at the limit; the same
+        feature as sb3-contrib's ``TimeFeatureWrapper``), placed after the task entries and before
+        the received message, and an episode that reaches ``max_steps`` is *terminated* instead
+        of truncated: with the time in the state the limit is a terminal state of the task, so
+        neither a TD target nor a Monte-Carlo return should look past it. ``False`` (default):
+        the agents do not see the time and the limit truncates, as in HFO. HFO's untouched-ball
+        rule, which the agents cannot see, truncates either way.
     """
 
     name: str = "batched_task"
@@ -101,6 +111,7 @@ class BatchedTask:
         autoreset: bool = True,
         channel_size: int | None = None,
         ball_x_range: tuple[float, float] | None = None,
+        time_feature: bool = False,
     ) -> None:
         if int(n_games) < 1:
             raise ValueError(f"n_games must be >= 1, got {n_games}.")
@@ -128,7 +139,12 @@ class BatchedTask:
         """(P,) bool: players whose Dash is executed (a Dash of the others is a no-op)."""
         self.n_features = features.feature_size(self.n_players - 1)
         self._extra = self._extra_observation()
-        self.n_extra = self._extra.shape[-1]
+        if not isinstance(time_feature, bool | np.bool_):
+            raise TypeError(f"time_feature must be True or False, got {time_feature!r}.")
+        self.time_feature = bool(time_feature)
+        self.n_extra = self._extra.shape[-1] + int(self.time_feature)
+        """Observation entries between the features and the message: the task entries, then the
+        remaining time (with ``time_feature``)."""
         self.observation_size = self.n_features + self.n_extra + self.channel_size
         self.action_size = N_HFO_ACTION + self.channel_size
         self.observation_low = np.full(self.observation_size, -1.0, dtype=np.float32)
@@ -218,7 +234,7 @@ class BatchedTask:
         self._steps = np.zeros(n, dtype=np.int64)
         self._returns = np.zeros((n, p), dtype=np.float64)
         self._on_reset(np.arange(n))
-        self.obs = self._observe(self.state, self._received)
+        self.obs = self._observe(self.state, self._received, self._steps)
         return self.obs
 
     def reset_games(self, mask: np.ndarray) -> np.ndarray:
@@ -254,7 +270,7 @@ class BatchedTask:
         if self._received.shape != shape:
             raise ValueError(f"received must have shape {shape}, got {self._received.shape}.")
         self._sent = self._received[:, self._teammate].copy()
-        self.obs = self._observe(self.state, self._received)
+        self.obs = self._observe(self.state, self._received, self._steps)
         return self.obs
 
     def step(
@@ -286,8 +302,11 @@ class BatchedTask:
         rewards = rewards.astype(np.float32, copy=False)
         terminated = np.asarray(terminated, dtype=bool)
         # HFO's untouched-ball rule is a time limit too: it truncates rather than terminates
-        truncated = ~terminated & ((self._steps >= self.max_steps) | (outcome == referee.OUT_OF_TIME))
-        outcome = np.where(truncated & (outcome == referee.IN_GAME), referee.OUT_OF_TIME, outcome)
+        timed_out = ~terminated & ((self._steps >= self.max_steps) | (outcome == referee.OUT_OF_TIME))
+        outcome = np.where(timed_out & (outcome == referee.IN_GAME), referee.OUT_OF_TIME, outcome)
+        if self.time_feature:  # the agents see the step limit: reaching it is a terminal state
+            terminated = terminated | (timed_out & (self._steps >= self.max_steps))
+        truncated = timed_out & ~terminated
 
         self.previous_state = previous
         self.state = state
@@ -310,13 +329,14 @@ class BatchedTask:
             padding = _padded_size(games.size) - games.size
             combined = _concatenate(state, fresh, fresh.select(np.zeros(padding, dtype=np.intp)))
             silence = np.zeros((games.size + padding, self.n_players, self.channel_size), dtype=np.float32)
-            both = self._observe(combined, np.concatenate([self._received, silence]))
+            steps = np.concatenate([self._steps, np.zeros(games.size + padding, dtype=np.int64)])
+            both = self._observe(combined, np.concatenate([self._received, silence]), steps)
             final_obs = both[: self.n_games]
             obs = final_obs.copy()
             obs[games] = both[self.n_games : self.n_games + games.size]
             self._install(games, fresh)
         else:
-            obs = final_obs = self._observe(state, self._received)
+            obs = final_obs = self._observe(state, self._received, self._steps)
         info["final_observation"] = final_obs
         self.obs = obs
         return obs, rewards, terminated, truncated, info
@@ -344,14 +364,15 @@ class BatchedTask:
     def global_state(self) -> np.ndarray:
         """(N, state_size) float32 full-information state, for centralised critics and analysis.
 
-        Every player's HFO features as if it could see (nobody blinded), the task entries, and
-        the messages in flight (sent at the last step), player after player.
+        Every player's HFO features as if it could see (nobody blinded), the task entries (and the
+        remaining time, with ``time_feature``), and the messages in flight (sent at the last step),
+        player after player.
         """
         n = self.n_games
         state = np.empty((n, self.n_players, self.observation_size), dtype=np.float32)
         f, e = self.n_features, self.n_extra
         state[..., :f] = features.low_level_features(self.state, self.params)
-        state[..., f : f + e] = self._extra
+        self._write_extra(state, self._steps)
         state[..., f + e :] = self._sent
         return state.reshape(n, -1)
 
@@ -380,12 +401,25 @@ class BatchedTask:
         check_finite(a, self.possible_agents)
         return a
 
-    def _observe(self, state: SoccerState, received: np.ndarray) -> np.ndarray:
+    def remaining_time(self, steps: np.ndarray) -> np.ndarray:
+        """The time feature of games that have taken ``steps`` steps: ``1 - steps / max_steps``,
+        clipped to [0, 1] (a game kept running past its limit with ``autoreset=False`` reads 0)."""
+        return np.clip(1.0 - np.asarray(steps, dtype=np.float64) / self.max_steps, 0.0, 1.0)
+
+    def _write_extra(self, obs: np.ndarray, steps: np.ndarray) -> None:
+        """Write the task entries and, with ``time_feature``, the remaining time of games that have
+        taken ``steps`` (one per game of ``obs``) into ``obs`` (N, P, observation_size)."""
+        f, task_entries = self.n_features, self._extra.shape[-1]
+        if task_entries:
+            obs[..., f : f + task_entries] = self._extra
+        if self.time_feature:
+            obs[..., f + task_entries] = self.remaining_time(steps)[:, None]
+
+    def _observe(self, state: SoccerState, received: np.ndarray, steps: np.ndarray) -> np.ndarray:
         obs = np.empty((state.n_games, self.n_players, self.observation_size), dtype=np.float32)
         f, e = self.n_features, self.n_extra
         self._features(state, obs[..., :f])
-        if e:
-            obs[..., f : f + e] = self._extra
+        self._write_extra(obs, steps)
         if self.channel_size:
             obs[..., f + e :] = received
         return obs
@@ -394,7 +428,7 @@ class BatchedTask:
         """Reset the given games in place; returns their first observations (k, P, obs)."""
         fresh = reset_state(self._rng, games.size, self.n_players, self.params, self.ball_x_range)
         self._install(games, fresh)
-        return self._observe(fresh, self._received[games])
+        return self._observe(fresh, self._received[games], self._steps[games])
 
     def _install(self, games: np.ndarray, fresh: SoccerState) -> None:
         """Write the fresh states of the given games into the task and clear their episode."""

@@ -11,7 +11,8 @@ agent's ball proximity,
 so an episode's return is the blind agent's total normalised approach to the ball. An episode
 terminates when the blind agent can kick the ball (HFO's kickable test, librcsc's 1.03); it also
 terminates when HFO's referee ends the game (a goal, or the ball out of bounds, which only a kick
-or a collision can cause), and is truncated after ``max_steps`` = 100 steps.
+or a collision can cause), and is truncated after ``max_steps`` = 100 steps (terminated, with
+``time_feature=True``, when the agents see the remaining time).
 
 ``rules="dqn-hfo"`` ends the episode as the authors' code does (SPEC §6 item 6): when *either*
 agent can kick the ball, so an episode also ends when the ball starts or rolls within the
@@ -48,6 +49,8 @@ class BlindSoccerTask(BatchedTask):
 
     :param rules: ``"paper"`` (default): the episode ends when the blind agent can kick the
         ball; ``"dqn-hfo"``: when either agent can (the authors' code).
+    :param time_feature: the agents observe the remaining time and the step limit terminates the
+        episode (see :class:`BatchedTask`); the observation then has 71 entries.
     :param kwargs: see :class:`BatchedTask` (``max_steps`` defaults to 100).
     """
 
@@ -68,9 +71,12 @@ class BlindSoccerTask(BatchedTask):
         channel_size: int | None = None,
         ball_x_range: tuple[float, float] | None = None,
         rules: str = "paper",
+        time_feature: bool = False,
     ) -> None:
         self.rules = check_rules(rules)
-        super().__init__(n_games, seed, params, noise, max_steps, autoreset, channel_size, ball_x_range)
+        super().__init__(
+            n_games, seed, params, noise, max_steps, autoreset, channel_size, ball_x_range, time_feature
+        )
 
     def _post_init(self) -> None:
         self.can_dash = np.array([False, True])  # the sighted agent cannot move

@@ -52,6 +52,8 @@ class GuessMyNumberTask(BatchedTask):
     :param rules: ``"paper"`` (default): reward for the teammate's previous message, only the
         time limit ends an episode; ``"dqn-hfo"``: reward for the message sent in the same step,
         and HFO's referee ends episodes (the authors' code).
+    :param time_feature: the agents observe the remaining time (after the hidden number) and the
+        step limit terminates the episode (see :class:`BatchedTask`).
     :param kwargs: see :class:`BatchedTask` (``max_steps`` defaults to 100, ``channel_size`` to 1).
     """
 
@@ -72,6 +74,7 @@ class GuessMyNumberTask(BatchedTask):
         ball_x_range: tuple[float, float] | None = None,
         hidden_numbers: Sequence[float] = (-0.8, 0.8),
         rules: str = "paper",
+        time_feature: bool = False,
     ) -> None:
         self.rules = check_rules(rules)
         hidden = np.asarray(hidden_numbers, dtype=np.float64)
@@ -80,7 +83,9 @@ class GuessMyNumberTask(BatchedTask):
         self.hidden_numbers = hidden
         if channel_size is not None and int(channel_size) < 1:
             raise ValueError("Guess My Number needs a channel: channel_size must be >= 1.")
-        super().__init__(n_games, seed, params, noise, max_steps, autoreset, channel_size, ball_x_range)
+        super().__init__(
+            n_games, seed, params, noise, max_steps, autoreset, channel_size, ball_x_range, time_feature
+        )
 
     def _extra_observation(self) -> np.ndarray:
         return self.hidden_numbers.astype(np.float32)[:, None]  # agent i sees h_i
