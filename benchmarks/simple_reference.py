@@ -53,7 +53,7 @@ FINAL_SEED = 20_000
 REFERENCE_SEED = 30_000
 
 
-def _perfect_channel_task(n: int, seed: int, channel_size: int) -> Any:
+def _perfect_channel_task(n: int, seed: int, channel_size: int, time_feature: bool = False) -> Any:
     """The batched game with a perfect channel: each agent hears its own target's colour."""
     from sb3_comm.foreign.batched_simple_reference import LANDMARK_COLOURS, N_FEATURES, SimpleReferenceTask
 
@@ -67,20 +67,28 @@ def _perfect_channel_task(n: int, seed: int, channel_size: int) -> Any:
 
     if channel_size < 3:
         raise ValueError(f"--perfect-channel needs --channel-size >= 3 (a colour), got {channel_size}")
-    return PerfectChannelTask(n, seed=seed, channel_size=channel_size)
+    return PerfectChannelTask(n, seed=seed, channel_size=channel_size, time_feature=time_feature)
 
 
-def _vec_env(n: int, seed: int, channel_size: int, batched: bool, perfect_channel: bool = False) -> Any:
+def _vec_env(
+    n: int,
+    seed: int,
+    channel_size: int,
+    batched: bool,
+    perfect_channel: bool = False,
+    time_feature: bool = False,
+) -> Any:
     from sb3_comm import make_comm_vec_env
     from sb3_comm.wrappers import BatchedTwoAgentVecEnv
 
     if perfect_channel:
-        vec_env = BatchedTwoAgentVecEnv(_perfect_channel_task(n, seed, channel_size))
+        vec_env = BatchedTwoAgentVecEnv(_perfect_channel_task(n, seed, channel_size, time_feature))
         vec_env.seed(seed)
         return vec_env
-    return make_comm_vec_env(
-        ENV_ID, n_envs=n, seed=seed, env_kwargs={"channel_size": channel_size}, batched=batched
-    )
+    options: dict[str, Any] = {"channel_size": channel_size}
+    if time_feature:  # the batched game's option (mpe2's own has none)
+        options["time_feature"] = True
+    return make_comm_vec_env(ENV_ID, n_envs=n, seed=seed, env_kwargs=options, batched=batched)
 
 
 def references(channel_size: int, episodes: int, seed: int, batched: bool) -> dict[str, float]:
@@ -106,8 +114,8 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
 
     th.set_num_threads(1)
     method, seed, channel, batched = job["method"], job["seed"], job["channel_size"], job["batched"]
-    perfect = job.get("perfect_channel", False)
-    curve_env = _vec_env(100, CURVE_SEED, channel, batched, perfect)
+    perfect, timed = job.get("perfect_channel", False), job.get("time_feature", False)
+    curve_env = _vec_env(100, CURVE_SEED, channel, batched, perfect, timed)
     curve: list[tuple[int, float]] = []
     eval_seconds = [0.0]
 
@@ -125,7 +133,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
                 self.next_at += job["eval_freq"]
             return True
 
-    env = _vec_env(job["n_envs"], seed, channel, batched, perfect)
+    env = _vec_env(job["n_envs"], seed, channel, batched, perfect, timed)
     # 'lin_<start>' learning rates (and mc_mixing) become linear schedules, as in a config file
     model = CommDDPG(method, env, seed=seed, device="cpu", **algorithm_kwargs(job.get("params", {})))
     began = time.perf_counter()
@@ -133,7 +141,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
     seconds = time.perf_counter() - began - eval_seconds[0]
     final = {}
     for ablation in ("none", "zero", "shuffle"):
-        final_env = _vec_env(100, FINAL_SEED, channel, batched, perfect)
+        final_env = _vec_env(100, FINAL_SEED, channel, batched, perfect, timed)
         final[ablation] = evaluate_team(model, final_env, seed=FINAL_SEED, ablation=ablation).mean
         final_env.close()
     result = {
@@ -144,6 +152,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
         "channel_size": channel,
         "batched": batched,
         "perfect_channel": perfect,
+        "time_feature": timed,
         "params": job.get("params", {}),
         "train_seconds": seconds,
         "curve": curve,
@@ -285,6 +294,12 @@ def main() -> None:
         action="store_true",
         help="a diagnostic: every agent hears its own target (batched game only); the learner's ceiling",
     )
+    parser.add_argument(
+        "--time-feature",
+        action="store_true",
+        help="train and evaluate on the time-aware batched game (time_feature=True: the agents see the "
+        "remaining time, the limit terminates); the references play the same games",
+    )
     parser.add_argument("--name", default="simple_reference")
     parser.add_argument("--summary-only", action="store_true", help="summarise the runs present, train none")
     parser.add_argument("--note", default="", help="a paragraph added to the Markdown summary")
@@ -311,6 +326,8 @@ def main() -> None:
     args.constructor_params = params
     if args.perfect_channel and not args.batched:
         parser.error("--perfect-channel needs the batched game (drop --no-batched)")
+    if args.time_feature and not args.batched:
+        parser.error("--time-feature needs the batched game (drop --no-batched)")
     runs_dir = Path(args.runs_dir or RESULTS_DIR / f"{args.name}_runs")
     runs_dir.mkdir(parents=True, exist_ok=True)
 
@@ -326,6 +343,7 @@ def main() -> None:
             "eval_freq": args.eval_freq,
             "runs_dir": str(runs_dir),
             "params": params,
+            **({"time_feature": True} if args.time_feature else {}),
         }
         for s in args.seeds
         for m in args.methods
@@ -352,6 +370,7 @@ def main() -> None:
     runs = [r for r in runs if r["timesteps"] == args.timesteps]
     runs = [r for r in runs if r.get("batched", False) == args.batched]  # earlier runs: mpe2's own
     runs = [r for r in runs if r.get("perfect_channel", False) == args.perfect_channel]
+    runs = [r for r in runs if r.get("time_feature", False) == args.time_feature]
     runs = [r for r in runs if r["method"] in args.methods and r["seed"] in args.seeds]
     backend = "" if not args.batched else "_batched"  # earlier reference files: mpe2's own game
     refs_path = runs_dir / f"references_{args.channel_size}{backend}.json"

@@ -191,3 +191,28 @@ def test_time_feature_reaches_the_vec_env() -> None:
     assert obs.shape[-1] == vec_env.observation_space.shape[-1]
     plain = make_comm_vec_env("BlindSoccer-v0", n_envs=3, seed=0)
     assert vec_env.observation_space.shape[-1] == plain.observation_space.shape[-1] + 1
+
+
+def test_simple_reference_time_feature_same_games_limit_terminates() -> None:
+    from sb3_comm.foreign.batched_simple_reference import N_FEATURES, SimpleReferenceTask
+
+    task = SimpleReferenceTask(n_games=3, seed=2, max_cycles=5, time_feature=True)
+    plain = SimpleReferenceTask(n_games=3, seed=2, max_cycles=5)
+    assert task.observation_size == plain.observation_size + 1
+    assert (task.observation_low[N_FEATURES], task.observation_high[N_FEATURES]) == (0.0, 1.0)
+    np.testing.assert_array_equal(task.obs[..., N_FEATURES], 1.0)
+    rng = np.random.default_rng(0)
+    for step in range(1, 7):
+        actions = rng.uniform(task.action_low, task.action_high, size=(3, 2, task.action_size))
+        obs, rewards, terminated, truncated, info = task.step(actions)
+        ref_obs, ref_rewards, ref_terminated, ref_truncated, _ = plain.step(actions)
+        np.testing.assert_array_equal(obs[..., :N_FEATURES], ref_obs[..., :N_FEATURES])
+        np.testing.assert_array_equal(obs[..., N_FEATURES + 1 :], ref_obs[..., N_FEATURES:])
+        np.testing.assert_array_equal(rewards, ref_rewards)
+        assert not truncated.any() and not ref_terminated.any()
+        np.testing.assert_array_equal(terminated, ref_truncated)
+        taken = (step - 1) % 5 + 1  # steps of the current episode (the sixth starts a new one)
+        assert terminated.all() == (taken == 5)
+        expected = 1 - taken / 5
+        np.testing.assert_allclose(info["final_observation"][..., N_FEATURES], expected, atol=1e-7)
+        np.testing.assert_allclose(obs[..., N_FEATURES], 1.0 if taken == 5 else expected, atol=1e-7)

@@ -61,6 +61,10 @@ class SimpleReferenceTask:
     :param silence: must be True: this version has no native channel (mpe2's own, with
         ``batched=False``, keeps it with ``silence=False``).
     :param autoreset: reset the games that ended at the end of the same step.
+    :param time_feature: time awareness (as the soccer tasks' option, :class:`envs.tasks.BatchedTask`):
+        each agent observes the remaining time ``1 - t / max_cycles`` after its 11 features (before
+        the received message), and an episode that reaches ``max_cycles`` is terminated instead of
+        truncated. Not in mpe2's own environment (``batched=False``).
     """
 
     name = "simple_reference"
@@ -77,6 +81,7 @@ class SimpleReferenceTask:
         local_ratio: float = 0.5,
         silence: bool = True,
         autoreset: bool = True,
+        time_feature: bool = False,
     ) -> None:
         if int(n_games) < 1:
             raise ValueError(f"n_games must be >= 1, got {n_games}")
@@ -98,12 +103,22 @@ class SimpleReferenceTask:
         self.max_cycles = int(max_cycles)
         self.local_ratio = float(local_ratio)
         self.autoreset = bool(autoreset)
-        self.observation_size = N_FEATURES + self.channel_size
+        if not isinstance(time_feature, bool | np.bool_):
+            raise TypeError(f"time_feature must be True or False, got {time_feature!r}.")
+        self.time_feature = bool(time_feature)
+        self.n_extra = int(self.time_feature)
+        """Entries between the features and the message: the remaining time, with ``time_feature``."""
+        self.observation_size = N_FEATURES + self.n_extra + self.channel_size
         self.action_size = N_MOVE + self.channel_size
         self.observation_low = np.concatenate(
-            [np.full(N_FEATURES, -np.inf, np.float32), -np.ones(self.channel_size, np.float32)]
+            [
+                np.full(N_FEATURES, -np.inf, np.float32),
+                np.zeros(self.n_extra, np.float32),
+                -np.ones(self.channel_size, np.float32),
+            ]
         )
-        self.observation_high = -self.observation_low
+        self.observation_high = np.abs(self.observation_low)
+        self.observation_high[N_FEATURES : N_FEATURES + self.n_extra] = 1.0
         self.action_low = np.concatenate(
             [np.zeros(N_MOVE, np.float32), -np.ones(self.channel_size, np.float32)]
         )
@@ -212,15 +227,17 @@ class SimpleReferenceTask:
         self._steps += 1
         self._returns += rewards
         self._received = sent[:, ::-1].copy()  # agent 0 hears agent 1 and vice versa, one step later
-        truncated = self._steps >= self.max_cycles
-        terminated = np.zeros(self.n_games, dtype=bool)
+        ended = self._steps >= self.max_cycles
+        # with the time in the state the limit is a terminal state; otherwise a truncation (mpe2)
+        terminated = ended if self.time_feature else np.zeros(self.n_games, dtype=bool)
+        truncated = ended & ~terminated
         info: dict[str, Any] = {
             "episode_return": self._returns.astype(np.float32),
             "episode_length": self._steps.copy(),
         }
         obs = final = self._observe()
-        if self.autoreset and truncated.any():
-            games = np.flatnonzero(truncated)
+        if self.autoreset and ended.any():
+            games = np.flatnonzero(ended)
             self._draw(games)
             self._received[games] = 0.0
             self._steps[games] = 0
@@ -275,5 +292,8 @@ class SimpleReferenceTask:
         relative = self.landmark_pos[index][:, None] - pos[:, :, None]  # (k, 2, 3, 2)
         obs[..., 2 : 2 + 2 * N_LANDMARKS] = relative.reshape(k, 2, 2 * N_LANDMARKS)
         obs[..., 2 + 2 * N_LANDMARKS : N_FEATURES] = LANDMARK_COLOURS[self.goal[index]]
-        obs[..., N_FEATURES:] = self._received[index]
+        if self.time_feature:
+            remaining = np.clip(1.0 - self._steps[index] / self.max_cycles, 0.0, 1.0)
+            obs[..., N_FEATURES] = remaining[:, None]
+        obs[..., N_FEATURES + self.n_extra :] = self._received[index]
         return obs
