@@ -192,18 +192,17 @@ def prepare_args(command: str, argv: list[str]) -> list[str]:
         conf = conf or str(config_path(known.method or "GSN"))
         print(f"sb3-comm: hyperparameters from {conf}", file=sys.stderr)
     entry = read_entry(conf, known.env)
-    if "env_kwargs" in entry:
-        options = " ".join(f"{key}:{value}" for key, value in dict(entry["env_kwargs"] or {}).items())
-        raise ValueError(
-            f"{conf}: {known.env!r} sets env_kwargs, which rl-zoo3 takes on its command line: drop it from "
-            f"the file and pass --env-kwargs {options}"
-        )
     if known.algo == "commddpg":
         method = known.method or str(entry.get("policy", "GSN")).upper()
         RunConfig.from_entry(entry, method, known.env, source=conf)  # raises on a bad method or key
     else:
         check_keys(entry, f"{conf}: {known.env!r}")
-    check_keys(_parse_zoo_params(known.params), "-params", exclude=("env_kwargs",))  # rl-zoo3: --env-kwargs
+    check_keys(_parse_zoo_params(known.params), "-params")
+    options = entry.get("env_kwargs") or {}
+    if options and not {"--env-kwargs", "--eval-env-kwargs"} & set(rest):
+        # rl-zoo3 2.9 trains with a file's env_kwargs but evaluates on the task without them
+        # unless told on its command line (its StoreDict reads Python literals)
+        args += ["--eval-env-kwargs", *(f"{key}:{value!r}" for key, value in dict(options).items())]
     return [*args, "-conf", conf]
 
 

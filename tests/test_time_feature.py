@@ -176,13 +176,15 @@ def test_cli_env_kwargs_train_and_evaluate(tmp_path: Path, capsys: pytest.Captur
     assert sorted(p.name for p in (tmp_path / "GuessMyNumber-v0").iterdir()) == ["TCG_seed0"]
 
 
-def test_rl_zoo_takes_task_options_on_its_command_line(tmp_path: Path) -> None:
+def test_rl_zoo_evaluates_on_the_task_options_of_the_file(tmp_path: Path) -> None:
     conf = tmp_path / "gsn.yml"
-    conf.write_text(
-        yaml.safe_dump({"BlindSoccer-v0": {"policy": "GSN", "env_kwargs": {"time_feature": True}}})
-    )
-    with pytest.raises(ValueError, match="pass --env-kwargs time_feature:True"):
-        prepare_args("train", ["--env", "BlindSoccer-v0", "-conf", str(conf)])
+    entry = {"policy": "GSN", "env_kwargs": {"time_feature": True}}
+    conf.write_text(yaml.safe_dump({"BlindSoccer-v0": entry}))
+    args = prepare_args("train", ["--env", "BlindSoccer-v0", "-conf", str(conf)])
+    assert args[args.index("--eval-env-kwargs") + 1] == "time_feature:True"  # rl-zoo3 reads literals
+    command_line = ["--env", "BlindSoccer-v0", "-conf", str(conf), "--env-kwargs", "max_steps:50"]
+    given = prepare_args("train", command_line)
+    assert "--eval-env-kwargs" not in given  # rl-zoo3 then evaluates with the command line's
 
 
 def test_time_feature_reaches_the_vec_env() -> None:
