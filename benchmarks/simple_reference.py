@@ -217,6 +217,11 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
     figure = _plot(runs, methods, refs, args.name)
     extra = "".join(f", {k}={v!r}" for k, v in args.constructor_params.items())
     game = "sb3-comm's batched game (equal to mpe2's step for step)" if args.batched else "mpe2's own game"
+    if args.time_feature:
+        game += (
+            ", **time-aware** (`time_feature=True`: the agents observe the remaining time and the "
+            "25-step limit terminates the episode; the same games, and the references play them unchanged)"
+        )
     if args.perfect_channel:
         game += (
             ", with a **perfect channel**: every agent hears its own target's colour in its first three "
