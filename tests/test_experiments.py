@@ -234,12 +234,17 @@ def fake_analysis(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, Any]]:
             calls.append(("save", Path(path)))
             np.savez(path, messages=np.zeros((3, 2)))
 
-    def collect_rollout(model: Any, env_id: str, n_episodes: int = 10, seed: int = 0) -> Rollout:
-        calls.append(("collect_rollout", (model.method, env_id, n_episodes, seed)))
+    def collect_rollout(
+        model: Any, env_id: str, n_episodes: int = 10, seed: int = 0, env_kwargs: Any = None
+    ) -> Rollout:
+        calls.append(("collect_rollout", (model.method, env_id, n_episodes, seed, env_kwargs)))
         return Rollout()
 
-    def analyse_communication(model: Any, env_id: str, n_episodes: int = 10, seed: int = 0, rollout=None):
-        calls.append(("analyse_communication", (env_id, n_episodes, isinstance(rollout, Rollout))))
+    def analyse_communication(
+        model: Any, env_id: str, n_episodes: int = 10, seed: int = 0, rollout=None, env_kwargs: Any = None
+    ):
+        heard = isinstance(rollout, Rollout)
+        calls.append(("analyse_communication", (env_id, n_episodes, heard, env_kwargs)))
         return {"sighted->blind": {"cic": np.float64(0.25), "probe_accuracy": np.array([0.5])[0]}}
 
     module = types.ModuleType("sb3_comm.analysis")
@@ -270,9 +275,9 @@ def test_a_run_writes_model_curve_ablations_and_communication(tmp_path: Path, fa
     # The analysis is called on the trained model; numpy numbers become JSON numbers.
     assert result["communication"] == {"sighted->blind": {"cic": 0.25, "probe_accuracy": 0.5}}
     assert fake_analysis == [
-        ("collect_rollout", ("GSN", "GuessMyNumber-v0", 4, 0)),
+        ("collect_rollout", ("GSN", "GuessMyNumber-v0", 4, 0, {})),  # the task's options: none
         ("save", run_dir / "messages.npz"),
-        ("analyse_communication", ("GuessMyNumber-v0", 4, True)),
+        ("analyse_communication", ("GuessMyNumber-v0", 4, True, {})),
     ]
     assert (run_dir / "messages.npz").is_file() and (run_dir / "model.zip").is_file()
     # one TensorBoard folder per experiment, a run named by method, task and seed

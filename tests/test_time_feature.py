@@ -118,6 +118,7 @@ def test_env_kwargs_in_a_config_reach_training_and_evaluation(tmp_path: Path) ->
     result = train_run(config, run, evaluation=EvalSettings(freq=40, episodes=2), save_freq=0)
     # evaluated on the task it learned (a 70-entry observation would not fit the model)
     assert result.final["none"]["n_episodes"] == 2 and len(result.curve) == 2
+    assert result.hyperparams["env_kwargs"] == {"time_feature": True, "max_steps": 20}  # in the record
     written = yaml.safe_load((run / "config.yml").read_text())["BlindSoccer-v0"]
     assert written["env_kwargs"] == {"time_feature": True, "max_steps": 20}
     again = RunConfig.load("GSN", "BlindSoccer-v0", path=run / "config.yml")
