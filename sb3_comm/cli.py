@@ -469,29 +469,32 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
-def _env_of(model_path: Path) -> str:
+def _run_entries(model_path: Path) -> dict[str, Any] | None:
+    """The ``{task: entry}`` of the run's ``config.yml`` beside ``model_path`` (None: no run config).
+
+    :raises ValueError: the file is not valid YAML.
+    """
     config = model_path.parent / "config.yml"
-    if config.is_file():
-        try:
-            entries = yaml.safe_load(config.read_text())
-        except yaml.YAMLError as error:
-            raise ValueError(f"{config} is not valid YAML; pass --env") from error
-        if isinstance(entries, dict) and entries:
-            return str(next(iter(entries)))
+    if not config.is_file():
+        return None
+    try:
+        entries = yaml.safe_load(config.read_text())
+    except yaml.YAMLError as error:
+        raise ValueError(f"{config} is not valid YAML; pass --env") from error
+    return entries if isinstance(entries, dict) else None
+
+
+def _env_of(model_path: Path) -> str:
+    entries = _run_entries(model_path)
+    if entries:
+        return str(next(iter(entries)))
     raise ValueError(f"Cannot tell the environment of {model_path} (no run config.yml beside it): pass --env")
 
 
 def _env_kwargs_of(model_path: Path, env_id: str) -> dict[str, Any]:
     """The task options the run beside ``model_path`` trained with on ``env_id`` (its config.yml's
     ``env_kwargs``), so that a model is evaluated on the task it learned; {} without a run config."""
-    config = model_path.parent / "config.yml"
-    if not config.is_file():
-        return {}
-    try:
-        entries = yaml.safe_load(config.read_text())
-    except yaml.YAMLError as error:
-        raise ValueError(f"{config} is not valid YAML") from error
-    entry = entries.get(env_id) if isinstance(entries, dict) else None
+    entry = (_run_entries(model_path) or {}).get(env_id)
     options = entry.get("env_kwargs") if isinstance(entry, dict) else None
     return dict(options) if isinstance(options, dict) else {}
 

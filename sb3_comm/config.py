@@ -304,14 +304,18 @@ class RunConfig:
     def to_entry(self) -> dict[str, Any]:
         """The entry as an rl-zoo3 file holds it: ``policy``, ``n_envs``, ``n_timesteps``,
         ``env_kwargs`` (only when the task has options) and the hyperparameters in text form."""
-        options = {"env_kwargs": dict(self.env_kwargs)} if self.env_kwargs else {}
         return {
             "policy": self.method,
             "n_envs": self.n_envs,
             "n_timesteps": self.n_timesteps,
-            **options,
+            **self.options_entry(),
             **self.hyperparams,
         }
+
+    def options_entry(self) -> dict[str, Any]:
+        """``{"env_kwargs": ...}`` when the task has options, else ``{}`` (an entry or a run's
+        record without options reads as before they existed)."""
+        return {"env_kwargs": dict(self.env_kwargs)} if self.env_kwargs else {}
 
     def to_yaml(self) -> str:
         """``config.yml`` of a run: ``{task: entry}``, a file that :meth:`load` reads back."""

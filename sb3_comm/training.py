@@ -199,12 +199,6 @@ def build_model(config: RunConfig, env: VecEnv | None = None, **kwargs: Any) -> 
     return CommDDPG(config.method, env, seed=config.seed, **config.algorithm_kwargs(), **kwargs)
 
 
-def _options_entry(config: RunConfig) -> dict[str, Any]:
-    """``{"env_kwargs": ...}`` for a run on a task with options, else nothing (a run's record then
-    reads as before)."""
-    return {"env_kwargs": dict(config.env_kwargs)} if config.env_kwargs else {}
-
-
 def _communication(
     model: CommDDPG, config: RunConfig, run_dir: Path, settings: EvalSettings
 ) -> tuple[dict[str, Any] | None, str | None]:
@@ -664,7 +658,7 @@ def _train(
         updates=int(model.n_updates),
         train_seconds=train_seconds,
         eval_seconds=evaluator.eval_seconds,
-        hyperparams={"n_envs": config.n_envs, **_options_entry(config), **config.hyperparams},
+        hyperparams={"n_envs": config.n_envs, **config.options_entry(), **config.hyperparams},
         eval=settings.describe(),
         curve=evaluator.history,
         final=final,
