@@ -86,7 +86,7 @@ def _vec_env(
         vec_env.seed(seed)
         return vec_env
     options: dict[str, Any] = {"channel_size": channel_size}
-    if time_feature:  # the batched game's option (mpe2's own has none)
+    if time_feature:  # the batched game's option; on mpe2's own, TwoAgentEnv(time_limit=max_cycles)
         options["time_feature"] = True
     return make_comm_vec_env(ENV_ID, n_envs=n, seed=seed, env_kwargs=options, batched=batched)
 
@@ -302,7 +302,7 @@ def main() -> None:
     parser.add_argument(
         "--time-feature",
         action="store_true",
-        help="train and evaluate on the time-aware batched game (time_feature=True: the agents see the "
+        help="train and evaluate on the time-aware game (time_feature=True: the agents see the "
         "remaining time, the limit terminates); the references play the same games",
     )
     parser.add_argument("--name", default="simple_reference")
@@ -331,8 +331,6 @@ def main() -> None:
     args.constructor_params = params
     if args.perfect_channel and not args.batched:
         parser.error("--perfect-channel needs the batched game (drop --no-batched)")
-    if args.time_feature and not args.batched:
-        parser.error("--time-feature needs the batched game (drop --no-batched)")
     runs_dir = Path(args.runs_dir or RESULTS_DIR / f"{args.name}_runs")
     runs_dir.mkdir(parents=True, exist_ok=True)
 

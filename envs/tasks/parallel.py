@@ -53,6 +53,7 @@ class CommParallelEnv(ParallelEnv):
         self.possible_agents = list(self.task.possible_agents)
         self.agents: list[str] = []
         self.channel_size = self.task.channel_size
+        self.time_feature = self.task.time_feature
         self.hybrid_layout = self.task.hybrid_layout
         self._observation_spaces = {
             agent: spaces.Box(self.task.observation_low, self.task.observation_high, dtype=np.float32)

@@ -80,6 +80,7 @@ def simple_reference_env(
     max_cycles: int = 25,
     local_ratio: float = 0.5,
     render_mode: str | None = None,
+    time_feature: bool = False,
 ) -> Any:
     """mpe2's ``simple_reference_v3`` (continuous actions) as a :class:`~sb3_comm.wrappers.TwoAgentEnv`.
 
@@ -89,11 +90,15 @@ def simple_reference_env(
     :param max_cycles: episode length in steps.
     :param local_ratio: weight of an agent's own reward against the team's.
     :param render_mode: mpe2's render mode (``"rgb_array"``).
+    :param time_feature: time awareness, as the batched game's option: each agent observes the
+        remaining time ``1 - t / max_cycles`` after its features, and the last step terminates the
+        episode (``TwoAgentEnv(time_limit=max_cycles)``).
     """
     from sb3_comm.wrappers.two_agent import TwoAgentEnv
 
-    if not isinstance(silence, bool):
-        raise TypeError(f"silence must be True or False, got {silence!r}")
+    for name, flag in (("silence", silence), ("time_feature", time_feature)):
+        if not isinstance(flag, bool):
+            raise TypeError(f"{name} must be True or False, got {flag!r}")
     module = _import_mpe2()
     env = module.parallel_env(
         continuous_actions=True,
@@ -101,7 +106,12 @@ def simple_reference_env(
         local_ratio=float(local_ratio),
         render_mode=render_mode,
     )
-    return TwoAgentEnv(env, channel_size=channel_size, silence=SIMPLE_REFERENCE_CHANNEL if silence else None)
+    return TwoAgentEnv(
+        env,
+        channel_size=channel_size,
+        silence=SIMPLE_REFERENCE_CHANNEL if silence else None,
+        time_limit=int(max_cycles) if time_feature else None,
+    )
 
 
 def steer(relative: np.ndarray, velocity: np.ndarray, gain: float = 8.0, damping: float = 2.0) -> np.ndarray:

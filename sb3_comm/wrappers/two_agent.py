@@ -17,6 +17,13 @@ An environment with a channel of its own that the wrapper should not use (MPE's
 observation entries are dropped from the rows, so that messages pass only through the wrapper's
 channel.
 
+An environment whose episodes end at a fixed step limit may be made time-aware with
+``time_limit=T`` (Pardo et al. 2018, "Time Limits in Reinforcement Learning"; the feature of
+sb3-contrib's ``TimeFeatureWrapper``): each agent's features end with the remaining time
+``1 - t / T`` (1 at the first observation, 0 at the limit), and an episode that reaches step ``T``
+is *terminated*, not truncated, since the limit is then part of the state the agents see. It is
+the ``time_feature`` option of sb3-comm's own tasks, for any ParallelEnv.
+
 SB3 needs one scalar reward per environment: the wrapper returns the team's mean reward and puts
 each agent's own reward in ``info["agent_rewards"]`` (what :class:`sb3_comm.CommDDPG` learns from).
 """
@@ -150,6 +157,11 @@ class TwoAgentEnv(gym.Env):
         The said action entries are set to its ``action_fill`` and removed from the action rows;
         the heard observation entries are removed from the observation rows. None (default) keeps
         every entry. Not accepted for an environment whose channel the wrapper itself uses.
+    :param time_limit: the episode's step limit ``T``, to make the agents time-aware: every row's
+        features end with the remaining time ``1 - t / T``, and reaching step ``T`` terminates the
+        episode (a truncation by the environment before ``T`` stays a truncation). None (default)
+        adds nothing. Not accepted for an environment that shows the time itself
+        (``time_feature=True``).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -159,6 +171,7 @@ class TwoAgentEnv(gym.Env):
         env: Any,
         channel_size: int | None = None,
         silence: NativeChannel | dict[str, NativeChannel] | None = None,
+        time_limit: int | None = None,
     ) -> None:
         super().__init__()
         agents = tuple(getattr(env, "possible_agents", ()))
@@ -182,6 +195,17 @@ class TwoAgentEnv(gym.Env):
                 f"silence is for an environment's own channel that the wrapper does not use; this "
                 f"environment's channel (channel_size={env_channel}) is the wrapper's message channel"
             )
+        if time_limit is not None:
+            if isinstance(time_limit, bool) or not isinstance(time_limit, int | np.integer) or time_limit < 1:
+                raise ValueError(
+                    f"time_limit must be a whole number of steps >= 1 or None, got {time_limit!r}"
+                )
+            if getattr(env, "time_feature", False):
+                raise ValueError(
+                    "time_limit adds the remaining time to the rows, but this environment already "
+                    "shows it (time_feature=True); use one of the two"
+                )
+        self.time_limit = None if time_limit is None else int(time_limit)
         self.silenced = silence is not None
         if silence is not None:
             env = SilenceNativeChannel(env, silence)
@@ -215,9 +239,16 @@ class TwoAgentEnv(gym.Env):
                 if hushed is not None:
                     self._obs_keep[i] = hushed.kept(obs_spaces[i].shape[0], "observation")
                     self._act_keep[i] = hushed.kept(act_spaces[i].shape[0], "action")
-        self.codec = RowCodec([k.size for k in self._obs_keep], [k.size for k in self._act_keep], channel)
+        timed = int(self.time_limit is not None)  # the remaining time, after each agent's features
+        self.codec = RowCodec(
+            [k.size + timed for k in self._obs_keep], [k.size for k in self._act_keep], channel
+        )
+        clock = (np.zeros(timed, dtype=np.float32), np.ones(timed, dtype=np.float32))
         self.observation_space, self.action_space = self.codec.spaces(
-            [(s.low[k], s.high[k]) for s, k in zip(obs_spaces, self._obs_keep, strict=True)],
+            [
+                (np.concatenate([s.low[k], clock[0]]), np.concatenate([s.high[k], clock[1]]))
+                for s, k in zip(obs_spaces, self._obs_keep, strict=True)
+            ],
             [(s.low[k], s.high[k]) for s, k in zip(act_spaces, self._act_keep, strict=True)],
         )
         self.comm_layout = self.codec.layout(
@@ -240,6 +271,9 @@ class TwoAgentEnv(gym.Env):
             else:
                 features = [r[None] for r in rows]
             messages = self._inbox[None]
+        if self.time_limit is not None:
+            remaining = np.float32(max(0.0, 1.0 - self._length / self.time_limit))
+            features = [np.append(f, np.full((1, 1), remaining, np.float32), axis=1) for f in features]
         rows = self.codec.observations(features, messages)[0]
         check_observation(rows, self.agent_names)  # NaN from the environment: blame it, not the actions
         return rows
@@ -278,6 +312,8 @@ class TwoAgentEnv(gym.Env):
         self._length += 1
         terminated = any(bool(terminations[a]) for a in self.agent_names)
         truncated = any(bool(truncations[a]) for a in self.agent_names) and not terminated
+        if self.time_limit is not None and self._length >= self.time_limit:
+            terminated, truncated = True, False  # the agents see the limit: it is a terminal state
         info: dict[str, Any] = {"agent_rewards": agent_rewards, "agent_infos": _copy_infos(infos)}
         if terminated or truncated:
             info["agent_returns"] = self._returns.astype(np.float32)
