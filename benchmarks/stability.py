@@ -7,6 +7,9 @@ lowest periodic evaluation after it, each as a fraction of the oracle's return o
 (:func:`paired_oracles`) and of its 1,000-game return. A seed passes when it ends at
 ≥ ``--reach`` × oracle and no evaluation after that first one drops below ``--floor`` × oracle.
 Also the mean and the IQM of the final fractions with their 95 % stratified-bootstrap intervals (rliable).
+On Blind Soccer a third table judges the same runs against the visible oracle on the same games
+(:func:`envs.oracles.blind_soccer_visible_oracle`: the oracle less the games whose blind agent the
+sighted agent cannot see, which no protocol can be told about; ``benchmarks/hidden_teammate.py``).
 
     python benchmarks/stability.py benchmarks/results/solve_guess_my_number_tcg_10seeds.json
 """
@@ -55,7 +58,7 @@ def reach_cells(row: dict[str, Any]) -> tuple[str, str]:
     return first, lowest
 
 
-def paired_oracles(env_id: str, runs: list[dict[str, Any]]) -> dict[str, float]:
+def paired_oracles(env_id: str, runs: list[dict[str, Any]], reference: str = "oracle") -> dict[str, float]:
     """The oracle's mean return on the very games of the periodic and final evaluations.
 
     Every run of a solve plays its periodic evaluations on the same 100 games (the curve seed) and
@@ -75,8 +78,28 @@ def paired_oracles(env_id: str, runs: list[dict[str, Any]]) -> dict[str, float]:
     for seed in sorted(seeds):
         references = reference_returns(env_id, n_episodes=n_episodes, seed=seed)
         assert references is not None
-        out[str(seed)] = references["oracle"]
+        if reference not in references:
+            known = [k for k in references if k not in ("n_episodes", "seed") and not k.endswith("_ci95")]
+            raise KeyError(f"{env_id} has no reference {reference!r}; it has {known}")
+        out[str(seed)] = references[reference]
     return out
+
+
+def judge_runs(
+    runs: list[dict[str, Any]], references: dict[str, float], reach: float, floor: float
+) -> list[dict[str, Any]]:
+    """:func:`seed_row` of every run, each evaluation divided by the reference's return on its own
+    games (``references``: :func:`paired_oracles`, by game seed)."""
+    return [
+        seed_row(
+            run,
+            references[str(run["eval"]["seeds"]["curve"])],
+            reach,
+            floor,
+            final_oracle=references[str(run["eval"]["seeds"]["final"])],
+        )
+        for run in runs
+    ]
 
 
 def main() -> None:
@@ -102,23 +125,26 @@ def main() -> None:
     paired = paired_oracles(data["env"], runs)
     judged = {
         "oracle": [seed_row(run, oracle, args.reach, args.floor) for run in runs],
-        "paired": [
-            seed_row(
-                run,
-                paired[str(run["eval"]["seeds"]["curve"])],
-                args.reach,
-                args.floor,
-                final_oracle=paired[str(run["eval"]["seeds"]["final"])],
-            )
-            for run in runs
-        ],
+        "paired": judge_runs(runs, paired, args.reach, args.floor),
     }
-    methods = sorted({run["method"] for run in runs})
-    sections, summaries = [], {}
-    for key, heading in (
+    headings = [
         ("paired", "Against the oracle on the same 100 games (the fair bar)"),
         ("oracle", f"Against the oracle's 1,000-game return ({oracle:.4f})"),
-    ):
+    ]
+    visible: dict[str, float] = {}
+    if data["env"] == "BlindSoccer-v0":
+        visible = paired_oracles(data["env"], runs, reference="visible_oracle")
+        judged["visible"] = judge_runs(runs, visible, args.reach, args.floor)
+        headings.append(
+            (
+                "visible",
+                "Against the visible oracle on the same 100 games (the oracle less the games whose "
+                "blind agent the sighted agent cannot see)",
+            )
+        )
+    methods = sorted({run["method"] for run in runs})
+    sections, summaries = [], {}
+    for key, heading in headings:
         rows_data = judged[key]
         estimates = interval_estimates([r["final_fraction"] for r in rows_data])
         passed = [r for r in rows_data if r["ends_above"] and r["stays_above_floor"]]
@@ -158,9 +184,25 @@ def main() -> None:
         f"return on the evaluation games themselves: {oracle_text} (periodic evaluations: the curve "
         "seed; final: the final seed)."
     )
+    if visible:
+        visible_text = ", ".join(
+            f"{value:.4f} on the games of seed {seed}" for seed, value in visible.items()
+        )
+        notes += (
+            " The visible oracle (`envs.oracles.blind_soccer_visible_oracle`: the oracle while the "
+            "sighted agent sees the blind agent, waiting while HFO 2016's teammate filter hides it at "
+            f"x <= 0, SPEC §6 item 1) on the same games: {visible_text}; see "
+            "`benchmarks/hidden_teammate.py`."
+        )
     write_results(
         args.name or f"stability_{Path(args.solve_json).stem}",
-        {"args": vars(args), "oracle": oracle, "paired_oracle": paired, **summaries},
+        {
+            "args": vars(args),
+            "oracle": oracle,
+            "paired_oracle": paired,
+            "visible_oracle": visible,
+            **summaries,
+        },
         "\n\n".join(sections) + notes,
         title=f"Every seed, every evaluation: {', '.join(methods)} on {data['env']}",
     )

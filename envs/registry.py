@@ -95,7 +95,12 @@ TASKS: Mapping[str, TaskSpec] = MappingProxyType(
                 channel_size=4,
                 agents=("sighted", "blind"),
                 oracle=oracles.blind_soccer_oracle,
-                baselines=MappingProxyType({"blind_dash_forward": oracles.blind_dash_forward}),
+                baselines=MappingProxyType(
+                    {
+                        "blind_dash_forward": oracles.blind_dash_forward,
+                        "visible_oracle": oracles.blind_soccer_visible_oracle,
+                    }
+                ),
             ),
             TaskSpec(
                 env_id="GuessMyNumber-v0",

@@ -103,3 +103,18 @@ def test_simple_reference_params_take_linear_schedules_as_a_config_file_does(tmp
     with pytest.raises(SystemExit):  # a malformed schedule stops the command before any run
         module.main()
     assert "'lin_x' is not a linear schedule" in capsys.readouterr().err
+
+
+def test_stability_pairs_blind_soccer_runs_with_the_visible_oracle_too():
+    """benchmarks/stability.py divides by a reference on the very games of a run's evaluations; the
+    visible oracle (the oracle less the games no protocol can be told about) lies below the oracle
+    there, and a reference a task does not have is refused by name."""
+    module = _load(BENCHMARKS / "stability.py")
+    runs = [{"eval": {"seeds": {"curve": 7, "final": 8}, "episodes": 40}}]
+    oracle = module.paired_oracles("BlindSoccer-v0", runs)
+    visible = module.paired_oracles("BlindSoccer-v0", runs, reference="visible_oracle")
+    assert set(oracle) == set(visible) == {"7", "8"}
+    assert all(0 < visible[seed] < oracle[seed] for seed in oracle)
+    refused = r"GuessMyNumber-v0 has no reference 'visible_oracle'; it has \['oracle'"
+    with pytest.raises(KeyError, match=refused):
+        module.paired_oracles("GuessMyNumber-v0", runs, reference="visible_oracle")

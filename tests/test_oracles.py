@@ -7,13 +7,16 @@ from envs import blind_soccer_v0, guess_my_number_v0
 from envs.oracles import (
     blind_dash_forward,
     blind_soccer_oracle,
+    blind_soccer_visible_oracle,
     empty_goal_oracle,
     evaluate,
     guess_my_number_oracle,
+    hidden_from_sighted,
     move_to_ball_oracle,
     random_policy,
 )
 from envs.soccer import referee
+from envs.tasks.blind_soccer import BLIND, SIGHTED
 from envs.tasks.single_agent import MoveToBallEnv, MoveToBallTask, ScoreEmptyGoalTask
 
 N_EPISODES = 50
@@ -104,3 +107,55 @@ def test_a_team_evaluation_plays_the_games_the_oracle_is_scored_on():
         expected = np.asarray(task.step(actions)[0])[..., :58]
         rows = venv.step(actions)[0].reshape(20, 2, -1)
         np.testing.assert_allclose(rows[..., :58], expected, atol=1e-6)
+
+
+# The sighted agent's teammate block: features 58-65 of HFO's 2016 layout with one teammate.
+TEAMMATE_BLOCK = slice(58, 66)
+
+
+def test_hidden_from_sighted_marks_the_games_whose_sighted_agent_sees_no_teammate():
+    """HFO 2016 hides a teammate at x <= 0 (SPEC §6 item 1): the games flagged hidden are exactly
+    those whose sighted agent's teammate block is all zero, at reset and while the game is played."""
+    task = blind_soccer_v0.batched_env(n_games=400)
+    obs = np.asarray(task.reset(seed=3))
+    for _ in range(2):
+        hidden = hidden_from_sighted(task.state)
+        block = obs[:, SIGHTED, TEAMMATE_BLOCK]
+        assert 0 < hidden.sum() < 400  # about 10 % of resets
+        assert not block[hidden].any()
+        assert (np.abs(block[~hidden]).max(axis=1) > 0).all()
+        obs = np.asarray(task.step(blind_soccer_oracle(task))[0])
+
+
+def test_visible_oracle_plays_the_oracle_while_seen_and_waits_while_hidden():
+    task = blind_soccer_v0.batched_env(n_games=400)
+    task.reset(seed=4)
+    hidden = hidden_from_sighted(task.state)
+    visible, full = blind_soccer_visible_oracle(task), blind_soccer_oracle(task)
+    np.testing.assert_array_equal(visible[~hidden], full[~hidden])
+    np.testing.assert_array_equal(visible[:, SIGHTED], full[:, SIGHTED])
+    waiting = visible[hidden, BLIND]
+    assert (waiting[:, :3].argmax(axis=1) == 1).all()  # Turn
+    assert not waiting[:, 3:].any()  # by 0 degrees, and no message
+    assert (full[hidden, BLIND, :3].argmax(axis=1) != 1).any()  # where the oracle itself moves
+
+
+def test_visible_oracle_loses_exactly_the_games_that_start_hidden():
+    """A blind agent that waits where no one sees it earns nothing; elsewhere the visible oracle
+    scores what the oracle scores (up to the rare game whose blind agent walks into x <= 0)."""
+    n = 300
+    returns = {}
+    for name, policy in (("oracle", blind_soccer_oracle), ("visible", blind_soccer_visible_oracle)):
+        task = blind_soccer_v0.batched_env(n_games=n)
+        task.reset(seed=5)
+        hidden = hidden_from_sighted(task.state)
+        total, done = np.zeros(n), np.zeros(n, dtype=bool)
+        while not done.all():
+            _, rewards, terminated, truncated, _ = task.step(policy(task))
+            total += np.where(done, 0.0, rewards[:, 0])
+            done |= terminated | truncated
+        returns[name] = total
+    assert hidden.any()
+    np.testing.assert_array_equal(returns["visible"][hidden], 0.0)
+    assert returns["oracle"][hidden].mean() > 0.3  # the full-information oracle scores there
+    assert abs(returns["visible"][~hidden].mean() - returns["oracle"][~hidden].mean()) < 0.01
