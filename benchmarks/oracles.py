@@ -81,6 +81,10 @@ Notes:
   is a communication-free baseline (the blind agent dashes straight ahead, as the paper's GSN
   policy did with its messages disabled); standing still would score 0. A success ends the
   episode with the referee still `IN_GAME` (the blind agent can kick the ball).
+  `visible_oracle` is the oracle limited to what the sighted agent sees: HFO 2016 hides a
+  teammate at x <= 0 (SPEC §6 item 1), and while it is hidden the blind agent waits (about 10 %
+  of resets start so; the `OUT_OF_TIME` episodes): what a protocol that conveys everything the
+  sighted agent sees reaches (`benchmarks/hidden_teammate.py`).
 - Guess My Number: the analytic maximum is 99 x 0.1 = 9.9 (the first step hears the initial
   message 0); the oracle sends each teammate its hidden number and reaches it.
 - `*_dqn_hfo`: the same tasks under `rules="dqn-hfo"`, as the authors' code ran them (SPEC §6
