@@ -90,7 +90,9 @@ def blind_soccer_oracle(task: BatchedTask, threshold: float = TURN_THRESHOLD) ->
     """Full-information Blind Soccer policy: the blind agent runs to the true ball position.
 
     The sighted agent turns by 0 degrees (it cannot dash anyway) and both messages are zero, so
-    the oracle needs no communication at all: it is the return a perfect protocol could reach.
+    the oracle needs no communication at all. Its return bounds what a protocol can reach, but no
+    protocol reaches it: in the games whose blind agent HFO 2016's features hide from the sighted
+    agent (x <= 0) nothing can be told (:func:`blind_soccer_visible_oracle`).
     """
     actions = np.zeros((task.n_games, task.n_players, task.action_size))
     actions[:, SIGHTED, :N_HFO_ACTION] = _hfo_action(task.n_games, np.full(task.n_games, _TURN))
