@@ -25,6 +25,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
 
+from envs.registry import get_task
 from sb3_comm.analysis.stats import interval_estimates
 
 
@@ -132,7 +133,7 @@ def main() -> None:
         ("oracle", f"Against the oracle's 1,000-game return ({oracle:.4f})"),
     ]
     visible: dict[str, float] = {}
-    if data["env"] == "BlindSoccer-v0":
+    if "visible_oracle" in get_task(data["env"]).baselines:
         visible = paired_oracles(data["env"], runs, reference="visible_oracle")
         judged["visible"] = judge_runs(runs, visible, args.reach, args.floor)
         headings.append(

@@ -18,6 +18,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
 from stability import judge_runs, paired_oracles
 
+from envs.registry import get_task
+
 
 def judge(data: dict[str, Any], method: str, reach: float, floor: float) -> dict[str, Any]:
     """Per reference (``paired``: the oracle on the same games; ``visible``: Blind Soccer's
@@ -26,7 +28,7 @@ def judge(data: dict[str, Any], method: str, reach: float, floor: float) -> dict
     if not runs:
         raise SystemExit(f"no run of method {method!r} in {data['name']}")
     references = {"paired": "oracle"}
-    if data["env"] == "BlindSoccer-v0":
+    if "visible_oracle" in get_task(data["env"]).baselines:
         references["visible"] = "visible_oracle"
     out: dict[str, Any] = {"seeds": [run["seed"] for run in runs], "params": data["args"].get("params", [])}
     for key, reference in references.items():
