@@ -100,14 +100,15 @@ def main() -> None:
     for run in args.runs:
         run_dir = Path(run)
         model = CommDDPG.load(run_dir / "model.zip", device="cpu")
-        teams[run_dir.name] = {}
+        label = f"{run_dir.parent.name}/{run_dir.name}"  # the solve's folder names its settings
+        teams[label] = {}
         for name, (seed, n_games) in GAME_SETS.items():
             if n_games != 100:
                 continue  # the runs are judged on their 100-game sets
             oracle, visible, hidden = sets[name]["_arrays"]
             returns = evaluate_team(model, ENV_ID, n_episodes=n_games, seed=seed).team_returns
-            teams[run_dir.name][name] = split(returns, hidden, oracle, visible)
-            print(f"{run_dir.name} {name}: {teams[run_dir.name][name]}", flush=True)
+            teams[label][name] = split(returns, hidden, oracle, visible)
+            print(f"{label} {name}: {teams[label][name]}", flush=True)
     for entry in sets.values():
         del entry["_arrays"]
 
