@@ -25,7 +25,6 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
 
-from envs.registry import get_task
 from sb3_comm.analysis.stats import interval_estimates
 
 
@@ -59,8 +58,9 @@ def reach_cells(row: dict[str, Any]) -> tuple[str, str]:
     return first, lowest
 
 
-def paired_oracles(env_id: str, runs: list[dict[str, Any]], reference: str = "oracle") -> dict[str, float]:
-    """The oracle's mean return on the very games of the periodic and final evaluations.
+def paired_references(env_id: str, runs: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Every scripted reference's mean return on the very games of the periodic and final
+    evaluations (:func:`~sb3_comm.analysis.references.reference_returns`, by game seed).
 
     Every run of a solve plays its periodic evaluations on the same 100 games (the curve seed) and
     its final one on another 100 (the final seed). A set of 100 games is easier or harder than the
@@ -79,11 +79,35 @@ def paired_oracles(env_id: str, runs: list[dict[str, Any]], reference: str = "or
     for seed in sorted(seeds):
         references = reference_returns(env_id, n_episodes=n_episodes, seed=seed)
         assert references is not None
+        out[str(seed)] = references
+    return out
+
+
+def paired_oracles(
+    env_id: str,
+    runs: list[dict[str, Any]],
+    reference: str = "oracle",
+    by_seed: dict[str, dict[str, Any]] | None = None,
+) -> dict[str, float]:
+    """One reference's mean return on the very games of the evaluations, by game seed
+    (:func:`paired_references`; ``by_seed``: its result, when the caller has it already).
+
+    :param reference: ``"oracle"``, or a task baseline such as Blind Soccer's ``"visible_oracle"``.
+    :raises KeyError: naming the references the task has, when it has no ``reference``.
+    """
+    by_seed = paired_references(env_id, runs) if by_seed is None else by_seed
+    out = {}
+    for seed, references in by_seed.items():
         if reference not in references:
             known = [k for k in references if k not in ("n_episodes", "seed") and not k.endswith("_ci95")]
             raise KeyError(f"{env_id} has no reference {reference!r}; it has {known}")
-        out[str(seed)] = references[reference]
+        out[seed] = references[reference]
     return out
+
+
+def has_visible_oracle(by_seed: dict[str, dict[str, Any]]) -> bool:
+    """Whether the task of :func:`paired_references`'s result has a visible oracle (Blind Soccer)."""
+    return all("visible_oracle" in references for references in by_seed.values())
 
 
 def judge_runs(
@@ -123,7 +147,8 @@ def main() -> None:
             raise SystemExit(f"{args.solve_json} has no run of method {args.method!r}; it has {present}")
     elif len(present) > 1:
         raise SystemExit(f"{args.solve_json} holds runs of {present}: pick one with --method")
-    paired = paired_oracles(data["env"], runs)
+    by_seed = paired_references(data["env"], runs)
+    paired = paired_oracles(data["env"], runs, by_seed=by_seed)
     judged = {
         "oracle": [seed_row(run, oracle, args.reach, args.floor) for run in runs],
         "paired": judge_runs(runs, paired, args.reach, args.floor),
@@ -133,8 +158,8 @@ def main() -> None:
         ("oracle", f"Against the oracle's 1,000-game return ({oracle:.4f})"),
     ]
     visible: dict[str, float] = {}
-    if "visible_oracle" in get_task(data["env"]).baselines:
-        visible = paired_oracles(data["env"], runs, reference="visible_oracle")
+    if has_visible_oracle(by_seed):
+        visible = paired_oracles(data["env"], runs, reference="visible_oracle", by_seed=by_seed)
         judged["visible"] = judge_runs(runs, visible, args.reach, args.floor)
         headings.append(
             (

@@ -16,9 +16,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
-from stability import judge_runs, paired_oracles
-
-from envs.registry import get_task
+from stability import has_visible_oracle, judge_runs, paired_oracles, paired_references
 
 
 def judge(data: dict[str, Any], method: str, reach: float, floor: float) -> dict[str, Any]:
@@ -27,12 +25,14 @@ def judge(data: dict[str, Any], method: str, reach: float, floor: float) -> dict
     runs = sorted((r for r in data["runs"] if r["method"] == method), key=lambda r: r["seed"])
     if not runs:
         raise SystemExit(f"no run of method {method!r} in {data['name']}")
+    by_seed = paired_references(data["env"], runs)
     references = {"paired": "oracle"}
-    if "visible_oracle" in get_task(data["env"]).baselines:
+    if has_visible_oracle(by_seed):
         references["visible"] = "visible_oracle"
     out: dict[str, Any] = {"seeds": [run["seed"] for run in runs], "params": data["args"].get("params", [])}
     for key, reference in references.items():
-        rows = judge_runs(runs, paired_oracles(data["env"], runs, reference=reference), reach, floor)
+        paired = paired_oracles(data["env"], runs, reference=reference, by_seed=by_seed)
+        rows = judge_runs(runs, paired, reach, floor)
         out[key] = {
             "passed": [r["seed"] for r in rows if r["ends_above"] and r["stays_above_floor"]],
             "failed": [r["seed"] for r in rows if not (r["ends_above"] and r["stays_above_floor"])],

@@ -45,8 +45,12 @@ from sb3_comm.config import RunConfig
 from sb3_comm.results import write_json
 from sb3_comm.training import EvalSettings, train_run
 
-BARS = ("oracle", "paired", "visible")
-"""The references a bar is drawn from (module docstring)."""
+BARS = {
+    "oracle": "oracle (1,000 games)",
+    "paired": "oracle, same games",
+    "visible": "visible oracle, same games",
+}
+"""The references a bar is drawn from (module docstring), and how the tables name them."""
 
 
 def _median_seconds(seconds: list[float | None]) -> float:
@@ -66,7 +70,7 @@ def main() -> None:
     parser.add_argument("--eval-freq", type=int, default=10_000)
     parser.add_argument("--time-budget", type=float, default=900.0, help="wall-clock seconds per run")
     parser.add_argument(
-        "--bar", default="oracle", choices=BARS, help="the bar a run stops at (all three are reported)"
+        "--bar", default="oracle", choices=list(BARS), help="the bar a run stops at (all three are reported)"
     )
     parser.add_argument("--save-dir", default="runs/time_to_solve")
     parser.add_argument("--name", default=None)
@@ -147,14 +151,9 @@ def main() -> None:
         # written after every run, so that a session that ends keeps the seeds done
         write_json(Path(__file__).resolve().parent / "results" / f"{name}.partial.json", runs)
     medians = {bar: _median_seconds([r[f"{bar}_seconds_to_target"] for r in runs]) for bar in bars}
-    labels = {
-        "oracle": "oracle (1,000 games)",
-        "paired": "oracle, same games",
-        "visible": "visible oracle, same games",
-    }
     rows = [
         "| seed | stopped at the bar | "
-        + " | ".join(f"seconds / steps to {args.target_fraction} × {labels[bar]}" for bar in bars)
+        + " | ".join(f"seconds / steps to {args.target_fraction} × {BARS[bar]}" for bar in bars)
         + " | training seconds | final return | load before / after |",
         "|---:|---|" + "---:|" * len(bars) + "---:|---:|---|",
     ]
@@ -176,15 +175,15 @@ def main() -> None:
     def median_text(bar: str) -> str:
         return "never" if medians[bar] == float("inf") else f"{medians[bar]:.0f} s"
 
-    values = ", ".join(f"{labels[bar]} {value / args.target_fraction:.4f}" for bar, value in bars.items())
+    values = ", ".join(f"{BARS[bar]} {value / args.target_fraction:.4f}" for bar, value in bars.items())
     notes = (
         f"\n\n{args.method} on `{args.env}`, packaged configuration"
         f"{' with ' + ', '.join(args.params) if args.params else ''}; the mean return of 100 evaluation "
         f"games (seed {curve_seed}) every {args.eval_freq:,} steps against {args.target_fraction} × a "
-        f"reference ({values}); a run stops at the first evaluation at the {labels[args.bar]} bar "
+        f"reference ({values}); a run stops at the first evaluation at the {BARS[args.bar]} bar "
         f"({target:.4f}), or after {args.time_budget:.0f} s of wall-clock. Median seconds to each bar over "
         f"the {len(runs)} seeds (an unreached bar counts as never): "
-        + "; ".join(f"{labels[bar]} {median_text(bar)}" for bar in bars)
+        + "; ".join(f"{BARS[bar]} {median_text(bar)}" for bar in bars)
         + " (a run stops at its own bar, so a higher bar can be missed). The visible oracle is the oracle "
         "less the games whose blind agent the sighted agent cannot see (`benchmarks/hidden_teammate.py`). "
         f"Runs one at a time, torch threads {args.threads}."
