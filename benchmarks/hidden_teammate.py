@@ -41,22 +41,14 @@ the periodic and of the final evaluations of ``benchmarks/solve.py`` (its ``eval
 
 
 def play_once(policy: oracles.Policy, seed: int, n_games: int) -> tuple[np.ndarray, np.ndarray]:
-    """One episode in each of ``n_games`` games of ``seed``: per-game returns, in game order, and
-    whether each game's blind agent starts hidden from the sighted agent.
-
-    (:func:`envs.oracles.evaluate` lists returns in the order episodes end; here game ``g``'s
-    return is entry ``g``, as :func:`sb3_comm.evaluation.evaluate_team` gives a team's.)
-    """
+    """One episode in each of ``n_games`` games of ``seed``: per-game team returns, in game order
+    (as :func:`sb3_comm.evaluation.evaluate_team` gives a team's), and whether each game's blind
+    agent starts hidden from the sighted agent."""
     task = get_task(ENV_ID).batched_env(n_games=n_games)
     task.reset(seed=seed)
     hidden = oracles.hidden_from_sighted(task.state)
-    returns = np.zeros(n_games)
-    done = np.zeros(n_games, dtype=bool)
-    while not done.all():
-        _, rewards, terminated, truncated, _ = task.step(policy(task))
-        returns += np.where(done, 0.0, rewards.mean(axis=1))
-        done |= terminated | truncated
-    return returns, hidden
+    result = oracles.evaluate(task, policy, n_games, seed=seed)  # resets to the same games
+    return result["returns"].mean(axis=1)[np.argsort(result["games"])], hidden
 
 
 def split(returns: np.ndarray, hidden: np.ndarray, oracle: np.ndarray, visible: np.ndarray) -> dict[str, Any]:

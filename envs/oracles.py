@@ -213,8 +213,10 @@ def evaluate(
         ``team_return`` (summary of the agents' mean return per episode; for Blind Soccer's shared
         reward it equals each agent's), ``length`` (summary of episode lengths), ``outcomes``
         (count per referee code name; a Blind Soccer success is ``IN_GAME``), ``terminated``
-        (episodes that ended by termination rather than truncation) and the raw ``returns``
-        (n_episodes, n_agents) and ``lengths`` (n_episodes,) arrays.
+        (episodes that ended by termination rather than truncation), the raw ``returns``
+        (n_episodes, n_agents) and ``lengths`` (n_episodes,) arrays, in the order the episodes
+        ended, and ``games`` (n_episodes,), the game each was played in (with one episode per game,
+        ``returns[np.argsort(games)]`` lists them game by game).
     """
     task: BatchedTask = getattr(task_or_env, "task", task_or_env)
     if n_episodes < 1:
@@ -224,7 +226,7 @@ def evaluate(
     quota[: n_episodes % n] += 1
     done_count = np.zeros(n, dtype=np.int64)
     running = np.zeros((n, p))
-    returns, lengths, outcomes, terminal = [], [], [], []
+    returns, lengths, outcomes, terminal, games = [], [], [], [], []
 
     task.reset(seed=seed)
     while (done_count < quota).any():
@@ -237,6 +239,7 @@ def evaluate(
             lengths.append(info["episode_length"][keep].copy())
             outcomes.append(info["outcome"][keep].copy())
             terminal.append(terminated[keep].copy())
+            games.append(keep)
             done_count += done
             running[done] = 0.0
             if not task.autoreset:
@@ -261,4 +264,5 @@ def evaluate(
         "terminated": int(np.concatenate(terminal).sum()),
         "returns": ret,
         "lengths": length,
+        "games": np.concatenate(games),
     }

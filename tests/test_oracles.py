@@ -144,17 +144,14 @@ def test_visible_oracle_loses_exactly_the_games_that_start_hidden():
     """A blind agent that waits where no one sees it earns nothing; elsewhere the visible oracle
     scores what the oracle scores (up to the rare game whose blind agent walks into x <= 0)."""
     n = 300
+    task = blind_soccer_v0.batched_env(n_games=n)
+    task.reset(seed=5)
+    hidden = hidden_from_sighted(task.state)
     returns = {}
     for name, policy in (("oracle", blind_soccer_oracle), ("visible", blind_soccer_visible_oracle)):
-        task = blind_soccer_v0.batched_env(n_games=n)
-        task.reset(seed=5)
-        hidden = hidden_from_sighted(task.state)
-        total, done = np.zeros(n), np.zeros(n, dtype=bool)
-        while not done.all():
-            _, rewards, terminated, truncated, _ = task.step(policy(task))
-            total += np.where(done, 0.0, rewards[:, 0])
-            done |= terminated | truncated
-        returns[name] = total
+        result = evaluate(task, policy, n, seed=5)
+        assert sorted(result["games"]) == list(range(n))  # one episode per game
+        returns[name] = result["returns"][np.argsort(result["games"]), 0]
     assert hidden.any()
     np.testing.assert_array_equal(returns["visible"][hidden], 0.0)
     assert returns["oracle"][hidden].mean() > 0.3  # the full-information oracle scores there
