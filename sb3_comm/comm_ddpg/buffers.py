@@ -43,13 +43,25 @@ class JointReplayBuffer(MonteCarloReplayBuffer):
     ``(n_agents, action_dim)``), plus:
 
     :param n_agents: agents per game.
+    :param explorer_envs: GSN-MAX's *explorer games*: the last ``explorer_envs`` of the parallel
+        games send random messages for its effect model; :meth:`sample` (the agents' and the GSN's
+        batches) draws from the other games only, :meth:`sample_explorers` from these only.
     """
 
     message_relabeler: MessageRelabeler | None = None
     """Recomputes the heard messages of every sample (None: as stored). Not saved with the buffer."""
     episode_starts: np.ndarray | None = None  # None in buffers pickled before it existed
 
-    def __init__(self, *args: Any, n_agents: int = 2, shared_reward: bool = False, **kwargs: Any) -> None:
+    explorer_envs: int = 0  # 0 in buffers pickled before it existed
+
+    def __init__(
+        self,
+        *args: Any,
+        n_agents: int = 2,
+        shared_reward: bool = False,
+        explorer_envs: int = 0,
+        **kwargs: Any,
+    ) -> None:
         self.n_agents = n_agents  # read by _rows() while the base class allocates the storage
         self.shared_reward = bool(shared_reward)
         """Store the agents' mean reward for every agent (the team's reward) instead of each one's own."""
@@ -57,6 +69,21 @@ class JointReplayBuffer(MonteCarloReplayBuffer):
         self.episode_starts = np.zeros((self.buffer_size, self.n_envs), dtype=bool)
         """(steps, n_envs) the transition's observation is the first of an episode."""
         self._next_starts = np.ones(self.n_envs, dtype=bool)
+        if not 0 <= explorer_envs < self.n_envs:
+            raise ValueError(
+                f"explorer_envs must leave at least one of the {self.n_envs} parallel games to the agents "
+                f"(0 <= explorer_envs < {self.n_envs}), got {explorer_envs}"
+            )
+        self.explorer_envs = int(explorer_envs)
+
+    def sample_explorers(self, batch_size: int) -> JointReplayBufferSamples:
+        """A uniform sample of the explorer games' transitions (as stored: no relabelling)."""
+        if not self.explorer_envs:
+            raise ValueError("sample_explorers: this buffer has no explorer games (explorer_envs=0)")
+        upper = self.buffer_size if self.full else self.pos
+        batch_inds = np.random.randint(0, upper, size=batch_size)
+        env_inds = np.random.randint(self.n_envs - self.explorer_envs, self.n_envs, size=batch_size)
+        return self._gather(batch_inds, env_inds)
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
@@ -106,7 +133,8 @@ class JointReplayBuffer(MonteCarloReplayBuffer):
     def _get_samples(
         self, batch_inds: np.ndarray, env: VecNormalize | None = None
     ) -> JointReplayBufferSamples:
-        env_inds = np.random.randint(0, high=self.n_envs, size=(len(batch_inds),))
+        agents_envs = self.n_envs - self.explorer_envs  # the explorer games only train the effect model
+        env_inds = np.random.randint(0, high=agents_envs, size=(len(batch_inds),))
         samples = self._gather(batch_inds, env_inds)
         if self.message_relabeler is None:
             return samples

@@ -124,6 +124,15 @@ class CommDDPG(HybridDDPG):
         c > 0 gives the grounding its own Adam step and the maximising signal a plain gradient step
         of rate ``c`` × the GSN's learning rate, so that its step follows its size (Adam would turn a
         small signal into full-size steps).
+    :param gsn_max_search: GSN-MAX only, with ``policy_kwargs`` ``gsn_effect_model=True``: None (the
+        default) follows the effect model's gradient; a number K searches K uniformly random
+        candidate messages for one whose direct effect on the receiver's reward, by the effect
+        model, beats the sent message's, and pulls the message towards it (the *effect search*
+        design, :class:`~sb3_comm.comm_ddpg.methods.GSNMAX`).
+    :param gsn_max_explorers: GSN-MAX only: the fraction of the parallel games (at least one when
+        > 0) whose agents send uniformly random messages, so that the effect model sees what a
+        message does apart from what it says; their transitions train the effect model only, never
+        the agents or the grounding (0: no explorer games).
     :param buffer_size: replay size in joint transitions.
     :param learning_starts: transitions collected with full exploration before learning.
     :param batch_size: joint transitions per update (agents and GSN).
@@ -213,6 +222,8 @@ class CommDDPG(HybridDDPG):
         gsn_max_centred: bool = False,
         gsn_max_gain: float | None = None,
         gsn_max_sgd: float | None = None,
+        gsn_max_search: int | None = None,
+        gsn_max_explorers: float = 0.0,
         buffer_size: int = 1_000_000,
         learning_starts: int = 1_000,
         batch_size: int = 64,
@@ -255,6 +266,8 @@ class CommDDPG(HybridDDPG):
                 "gsn_max_centred": gsn_max_centred,
                 "gsn_max_gain": gsn_max_gain,
                 "gsn_max_sgd": gsn_max_sgd,
+                "gsn_max_search": gsn_max_search,
+                "gsn_max_explorers": gsn_max_explorers,
                 "tcg_gain": tcg_gain,
                 "relabel_messages": relabel_messages,
                 "shared_reward": shared_reward,
@@ -270,6 +283,8 @@ class CommDDPG(HybridDDPG):
         self.gsn_max_centred = gsn_max_centred
         self.gsn_max_gain = gsn_max_gain
         self.gsn_max_sgd = gsn_max_sgd
+        self.gsn_max_search = gsn_max_search
+        self.gsn_max_explorers = gsn_max_explorers
         self.tcg_gain = tcg_gain
         self.relabel_messages = relabel_messages
         # SB3's load builds the model with _init_setup_model=False, then sets the saved attributes:
@@ -377,7 +392,40 @@ class CommDDPG(HybridDDPG):
             "n_agents": layout.n_agents,
             "shared_reward": self.shared_reward,
         }
+        explorers = self.explorer_envs
+        if explorers and explorers >= self.n_envs:
+            raise ValueError(
+                f"gsn_max_explorers={self.gsn_max_explorers!r} of {self.n_envs} parallel game(s) leaves "
+                "none to the agents: use more games (n_envs) or a smaller fraction"
+            )
+        if explorers:
+            self.replay_buffer_kwargs["explorer_envs"] = explorers
         return {"comm_layout": layout, "share_parameters": self.share_parameters}
+
+    @property
+    def explorer_envs(self) -> int:
+        """GSN-MAX's explorer games: how many of the parallel games (the last ones) send random
+        messages for the effect model (``gsn_max_explorers`` of ``n_envs``, at least one when > 0)."""
+        fraction = getattr(self, "gsn_max_explorers", 0.0)  # models saved before the option
+        if not fraction:
+            return 0
+        return max(1, round(fraction * self.n_envs))
+
+    def _sample_action(
+        self, learning_starts: int, action_noise: ActionNoise | None = None, n_envs: int = 1
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`HybridDDPG._sample_action <sb3_comm.HybridDDPG._sample_action>`; in GSN-MAX's
+        explorer games every agent sends a uniformly random message."""
+        action, buffer_action = super()._sample_action(learning_starts, action_noise, n_envs)
+        explorers = self.explorer_envs
+        if not explorers:
+            return action, buffer_action
+        layout = self.comm_layout
+        rows = buffer_action.reshape(n_envs, layout.n_agents, layout.action_dim).copy()
+        shape = (explorers, layout.n_agents, layout.channel_size)
+        rows[n_envs - explorers :, :, layout.action_message_slice] = np.random.uniform(-1.0, 1.0, size=shape)
+        buffer_action = rows.reshape(buffer_action.shape)
+        return self.policy.unscale_action(buffer_action), buffer_action
 
     def _explorable_entries(self) -> np.ndarray:
         """The environment action, and the message where it is an action (RIAL, TCG) or explored
@@ -404,6 +452,8 @@ class CommDDPG(HybridDDPG):
                 ("gsn_max_sgd", None, "None"),
                 ("gsn_max_gain", None, "None"),
                 ("gsn_max_centred", False, "False"),
+                ("gsn_max_search", None, "None"),
+                ("gsn_max_explorers", 0.0, "0"),
             ):
                 value = getattr(self, name, off)
                 if (value is not off) if isinstance(off, bool) or off is None else (value != off):
@@ -433,6 +483,25 @@ class CommDDPG(HybridDDPG):
                 "gsn_max_centred, gsn_max_gain and gsn_max_sgd shape the maximising signal of GSN-MAX's "
                 "one-extractor mix; with policy_kwargs gsn_maximising_head=True the head is trained by the "
                 "signal alone: leave them at False, None and None"
+            )
+        search = getattr(self, "gsn_max_search", None)
+        effect = self.gsn is not None and self.gsn.effect_model is not None
+        if search is not None and not effect:
+            raise ValueError(
+                f"gsn_max_search={search!r} searches messages by GSN-MAX's effect model: it needs "
+                "policy_kwargs gsn_effect_model=True"
+            )
+        if search is not None and (
+            getattr(self, "gsn_max_centred", False) or gain is not None or sgd is not None
+        ):
+            raise ValueError(
+                "gsn_max_search pulls messages towards the effect model's best candidate: it takes no "
+                "gsn_max_centred, gsn_max_gain or gsn_max_sgd (leave them at False, None and None)"
+            )
+        if self.explorer_envs and not effect:
+            raise ValueError(
+                f"gsn_max_explorers={self.gsn_max_explorers!r}: explorer games feed GSN-MAX's effect model; "
+                "set policy_kwargs gsn_effect_model=True (or leave gsn_max_explorers at 0)"
             )
         self._attach_relabeler()
         self._agent_returns: deque[np.ndarray] = deque(maxlen=self._stats_window_size)
@@ -507,6 +576,7 @@ class CommDDPG(HybridDDPG):
                 gain=getattr(self, "gsn_max_gain", None),
                 sgd=getattr(self, "gsn_max_sgd", None),
                 head_learning_rate=self.actor_learning_rate,
+                search=getattr(self, "gsn_max_search", None),
             )
             callback = CallbackList([self.gsn_callback, callback])
             callback.init_callback(self)

@@ -26,7 +26,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
@@ -84,6 +84,12 @@ class GroundedSemanticNetwork(nn.Module):
         output is added to the grounded message, ``m = M(o) + H(o)``. ``M`` and ``R`` are trained by
         the regression alone, on ``M(o)``; ``H`` by the receiver critic's gradient alone, with its own
         optimizer (:attr:`head_optimizer`).
+    :param effect_obs_dim: 0 (no effect model), or the length of an observation row without its
+        received message: GSN-MAX's *effect model* ``E(o_j, o_i, m, a_j)``, a centralised one-step
+        model of an agent's own reward from both agents' situations (without the messages heard),
+        the message it heard and its own action (option ``gsn_effect_model``; see
+        :class:`~sb3_comm.comm_ddpg.methods.GSNMAX`). Trained by regression beside ``R``; it only
+        gives GSN-MAX's maximising signal and never shapes a message directly.
     :param normalize_rewards: regress on teammate rewards standardised by their running mean and
         standard deviation. Soccer rewards are tiny (a variance of about 1e-5 on Blind Soccer), and
         without this the regression barely moves from its initial guess, so the messages carry no
@@ -105,6 +111,7 @@ class GroundedSemanticNetwork(nn.Module):
         heard_dim: int = 0,
         maximising_head: bool = False,
         teammate_obs_dim: int = 0,
+        effect_obs_dim: int = 0,
     ) -> None:
         super().__init__()
         self.heard_dim = heard_dim
@@ -135,6 +142,29 @@ class GroundedSemanticNetwork(nn.Module):
         )
         self.maximising_head: AgentMLPs | None = None
         """GSN-MAX's ``H`` (``maximising_head=True``), or None."""
+        self.effect_obs_dim = effect_obs_dim
+        self.effect_model: nn.ModuleList | None = None
+        """GSN-MAX's effect models ``E_1``, ``E_2`` (``effect_obs_dim`` > 0), or None."""
+        if effect_obs_dim:
+            # how much of the reward the effect model explains (an average over updates, R²)
+            self.register_buffer("effect_r2", th.zeros(()))
+            # running moments of the rewards the effect model learns (its own data: explorer games)
+            self.register_buffer("effect_reward_mean", th.zeros(()))
+            self.register_buffer("effect_reward_var", th.ones(()))
+            self.register_buffer("effect_reward_count", th.zeros(()))
+            # two models of the same data, initialised apart: one picks a candidate, the other
+            # judges it (as double Q-learning), so that one model's error is not mistaken for an effect
+            self.effect_model = nn.ModuleList(
+                AgentMLPs(
+                    n_agents,
+                    2 * effect_obs_dim + channel_size + teammate_action_dim,
+                    1,
+                    reward_net_arch,
+                    activation_fn,
+                    share_parameters,
+                )
+                for _ in range(2)
+            )
         if maximising_head:
             self.maximising_head = AgentMLPs(
                 n_agents, obs_dim, channel_size, message_net_arch, activation_fn, share_parameters
@@ -174,6 +204,49 @@ class GroundedSemanticNetwork(nn.Module):
         features = th.cat(parts, dim=-1)
         return self.reward_model(features).squeeze(-1)
 
+    def effect(self, situation: th.Tensor, heard: th.Tensor, actions: th.Tensor, which: int = 0) -> th.Tensor:
+        """``E(o_j, o_i, m_j, a_j)``, each agent's own one-step reward by effect model ``which``
+        (standardised by the effect models' running reward moments), ``(B, n_agents)``.
+
+        :param situation: ``(B, n_agents, effect_obs_dim)`` each row's observation without the
+            message it heard (row ``i``'s teammate is the other row).
+        :param heard: ``(B, n_agents, n)`` the message each row heard.
+        :param actions: ``(B, n_agents, ≥ teammate_action_dim)`` each row's own action (the
+            environment action comes first; the rest is ignored).
+        :param which: 0 or 1, the effect model.
+        """
+        assert self.effect_model is not None
+        features = th.cat(
+            [situation, situation.flip(-2), heard, actions[..., : self.teammate_action_dim]], dim=-1
+        )
+        return self.effect_model[which](features).squeeze(-1)
+
+    def effect_loss(self, obs: th.Tensor, actions: th.Tensor, rewards: th.Tensor) -> th.Tensor:
+        """The effect models' regression on replayed transitions (the mean of their two losses):
+        each row's own reward from both rows' situations, the message the row heard and its action
+        (standardised by :meth:`effect_target`).
+
+        :param obs: ``(B, 2, obs_dim)`` observations (the heard message is their last ``n`` entries).
+        :param actions: ``(B, 2, action_dim)`` actions.
+        :param rewards: ``(B, 2)`` rewards.
+        """
+        start = self.effect_obs_dim
+        target = self.effect_target(rewards)
+        situation, heard = obs[..., :start], obs[..., start:]
+        return sum(F.mse_loss(self.effect(situation, heard, actions, k), target) for k in range(2)) / 2.0
+
+    def effect_target(self, rewards: th.Tensor) -> th.Tensor:
+        """The effect model's regression target: ``rewards`` standardised by the running moments of
+        the rewards it learns from (updated first, in training mode), where ``normalize_rewards``."""
+        if not self.normalize_rewards:
+            return rewards
+        if self.training:
+            with th.no_grad():
+                _merge_moments(
+                    self.effect_reward_mean, self.effect_reward_var, self.effect_reward_count, rewards
+                )
+        return (rewards - self.effect_reward_mean) / self.effect_reward_var.sqrt().clamp_min(1e-8)
+
     @property
     def reward_std(self) -> th.Tensor:
         """Running standard deviation of the teammate reward."""
@@ -186,13 +259,7 @@ class GroundedSemanticNetwork(nn.Module):
 
     def update_reward_statistics(self, rewards: th.Tensor) -> None:
         """Merge a batch into the running mean and variance (parallel-moments formula)."""
-        batch_mean, batch_var, n = rewards.mean(), rewards.var(unbiased=False), rewards.numel()
-        total = self.reward_count + n
-        delta = batch_mean - self.reward_mean
-        m2 = self.reward_var * self.reward_count + batch_var * n + delta**2 * self.reward_count * n / total
-        self.reward_mean += delta * n / total
-        self.reward_var.copy_(m2 / total)
-        self.reward_count.copy_(total)
+        _merge_moments(self.reward_mean, self.reward_var, self.reward_count, rewards)
 
     def loss(
         self, obs: th.Tensor, actions: th.Tensor, rewards: th.Tensor, messages: th.Tensor | None = None
@@ -216,6 +283,18 @@ class GroundedSemanticNetwork(nn.Module):
                     self.update_reward_statistics(target)
             target = (target - self.reward_mean) / self.reward_std
         return F.mse_loss(self._raw_prediction(obs, teammate_actions, messages), target)
+
+
+def _merge_moments(mean: th.Tensor, var: th.Tensor, count: th.Tensor, batch: th.Tensor) -> None:
+    """Merge ``batch`` into the running ``mean``, ``var`` and ``count`` (in place; parallel-moments
+    formula)."""
+    batch_mean, batch_var, n = batch.mean(), batch.var(unbiased=False), batch.numel()
+    total = count + n
+    delta = batch_mean - mean
+    m2 = var * count + batch_var * n + delta**2 * count * n / total
+    mean += delta * n / total
+    var.copy_(m2 / total)
+    count.copy_(total)
 
 
 class GSNTrainingCallback(BaseCallback):
@@ -255,6 +334,8 @@ class GSNTrainingCallback(BaseCallback):
     :param verbose: 0 silent, 1 info.
     :param head_learning_rate: learning rate (or schedule) of GSN-MAX's maximising head, where the
         GSN has one (the model passes its actor's: the head is trained like TCG's message outputs).
+    :param search: GSN-MAX's effect search: candidates per message (None: not this design; see
+        :meth:`GSNMAX.search_targets <sb3_comm.comm_ddpg.methods.GSNMAX.search_targets>`).
     """
 
     def __init__(
@@ -271,8 +352,10 @@ class GSNTrainingCallback(BaseCallback):
         centred: bool = False,
         gain: float | None = None,
         sgd: float | None = None,
+        search: int | None = None,
     ) -> None:
         super().__init__(verbose)
+        self.search = search
         self.learning_rate = learning_rate
         self.lr_schedule = FloatSchedule(learning_rate)
         self.head_lr_schedule = FloatSchedule(head_learning_rate)
@@ -396,7 +479,12 @@ class GSNTrainingCallback(BaseCallback):
             head_lr = self.head_lr_schedule(self.model.progress_remaining)  # type: ignore[attr-defined]
             for group in gsn.head_optimizer.param_groups:
                 group["lr"] = head_lr
-        return [replay_buffer.sample(self.batch_size) for _ in range(n_updates)]
+        batches = [replay_buffer.sample(self.batch_size) for _ in range(n_updates)]
+        if gsn.effect_model is not None and getattr(replay_buffer, "explorer_envs", 0):
+            # the effect model learns from the explorer games (drawn after the GSN's batches)
+            explorers = [replay_buffer.sample_explorers(self.batch_size) for _ in range(n_updates)]
+            return [_WithExplorers(data, extra) for data, extra in zip(batches, explorers, strict=True)]
+        return batches
 
     def current_max_weight(self, progress_remaining: float) -> float:
         """GSN-MAX's maximising share ``w`` at this point of training: ``max_weight``, reached
@@ -426,9 +514,15 @@ class GSNTrainingCallback(BaseCallback):
         values: list[tuple[str, Any, int]] = []
         head = gsn.maximising_head
         for data in batches:
+            explorers = None
+            if isinstance(data, _WithExplorers):
+                data, explorers = data.data, data.explorers
             if mixing is None:  # GSN: the regression alone (paper eq. 2)
                 loss = gsn.loss(data.observations, data.actions, data.rewards)
                 gradient_step(gsn.optimizer, loss, self.max_grad_norm)  # type: ignore[arg-type]
+            elif self.search is not None:  # GSN-MAX, effect search
+                loss, stats = self._effect_search_update(policy, gsn, data, explorers)
+                values += stats
             elif head is not None:  # GSN-MAX, head design: each signal trains its own network
                 loss, stats = self._head_design_update(policy, gsn, head, data)
                 values += stats
@@ -451,7 +545,17 @@ class GSNTrainingCallback(BaseCallback):
                     plain_step = th.autograd.grad(messages, extractor, grad_outputs=ascent, retain_graph=True)
                 extractor_grads = th.autograd.grad(messages, extractor, grad_outputs=gradient)
                 trained = [*reward_model, *extractor]
-                for param, grad in zip(trained, [*reward_grads, *extractor_grads], strict=True):
+                grads = [*reward_grads, *extractor_grads]
+                if gsn.effect_model is not None:  # the effect model's own regression
+                    effect_params = list(gsn.effect_model.parameters())
+                    effect_data = data if explorers is None else explorers
+                    effect_loss = gsn.effect_loss(
+                        effect_data.observations, effect_data.actions, effect_data.rewards
+                    )
+                    trained += effect_params
+                    grads += th.autograd.grad(effect_loss, effect_params)
+                    stats["gsn/effect_loss"] = effect_loss.detach()
+                for param, grad in zip(trained, grads, strict=True):
                     param.grad = grad
                 if self.max_grad_norm:
                     clip_gradients(trained, self.max_grad_norm)
@@ -469,6 +573,68 @@ class GSNTrainingCallback(BaseCallback):
             self.n_updates += 1
         values.append(("time/gsn_update_ms", 1000.0 * (time.perf_counter() - began), len(batches)))
         return values
+
+    PULL_BOUND = 0.995
+    """A ``tanh`` message is pulled before its ``tanh``, towards ``atanh`` of its target clipped to
+    this bound."""
+
+    EFFECT_R2_RATE = 0.01
+    """Weight of one batch in the running R² of the effect model (about the last 100 updates)."""
+
+    def _effect_search_update(
+        self, policy: Any, gsn: GroundedSemanticNetwork, data: Any, explorers: Any | None
+    ) -> tuple[th.Tensor, list[tuple[str, Any, int]]]:
+        """GSN-MAX's effect search on one batch: one Adam step of the GSN on
+
+            L = L_g(M(o)) + L_E + λ · ½ mean ‖M(o) − m*‖²,    λ = w / (1 − w) · R²_E,
+
+        the grounding regression (paper eq. 2, GSN's loss on ``M`` and ``R``), the effect models'
+        regression on the explorer games' transitions (where there are any), and a pull of each
+        message (before its ``tanh``, where it has one) towards the best candidate ``m*`` that the
+        effect models find
+        (:meth:`GSNMAX.search_targets <sb3_comm.comm_ddpg.methods.GSNMAX.search_targets>`; rows with
+        no better candidate are not pulled). ``R²_E``, the share of the reward's variance the effect
+        model explains (a running average), keeps the pull out while the model knows nothing. Where
+        nothing is pulled, the step is GSN's. ``signals`` switches either part off (the ablations).
+        Returns the regression loss and the values to log."""
+        obs = data.observations
+        raw = gsn.message_extractor(obs)
+        messages = th.tanh(raw) if gsn.message_activation == "tanh" else raw
+        grounded = messages if self.signals != "maximising" else messages.detach()  # R still learns
+        loss = gsn.loss(obs, data.actions, data.rewards, messages=grounded)
+        effect_data = data if explorers is None else explorers
+        effect_loss = gsn.effect_loss(effect_data.observations, effect_data.actions, effect_data.rewards)
+        with th.no_grad():
+            was_training, gsn.training = gsn.training, False  # the moments were updated by the loss
+            target = gsn.effect_target(effect_data.rewards)
+            gsn.training = was_training
+            r2 = (1.0 - effect_loss / target.var(unbiased=False).clamp_min(1e-12)).clamp(0.0, 1.0)
+            gsn.effect_r2.lerp_(r2, self.EFFECT_R2_RATE)
+        total = loss + effect_loss
+        values: list[tuple[str, Any, int]] = [
+            ("gsn/effect_loss", effect_loss.detach(), 1),
+            ("gsn/effect_r2", gsn.effect_r2.clone(), 1),
+        ]
+        if self.signals != "grounding":
+            assert self.search is not None
+            targets, pulled, gain = policy.comm_method.search_targets(
+                policy, messages.detach(), data.next_observations, data.dones, self.search
+            )
+            weight = self._weight_now / max(1.0 - self._weight_now, 1e-6) * gsn.effect_r2
+            if self.signals == "maximising":
+                weight = th.ones_like(weight)
+            if gsn.message_activation == "tanh":  # pulled before the tanh: a saturated message still moves
+                targets = th.atanh(targets.clamp(-self.PULL_BOUND, self.PULL_BOUND))
+            pull = 0.5 * ((raw - targets).pow(2).sum(-1) * pulled).mean()
+            total = total + weight * pull
+            values += [
+                ("gsn/search_pulled", pulled.mean(), 1),
+                ("gsn/search_gain", (gain * pulled).sum() / pulled.sum().clamp_min(1.0), 1),
+                ("gsn/pull_loss", pull.detach(), 1),
+                ("gsn/pull_weight", weight.clone(), 1),
+            ]
+        gradient_step(gsn.optimizer, total, self.max_grad_norm)  # type: ignore[arg-type]
+        return loss, values
 
     def _head_design_update(
         self, policy: Any, gsn: GroundedSemanticNetwork, head: nn.Module, data: Any
@@ -502,3 +668,10 @@ class GSNTrainingCallback(BaseCallback):
             gsn.head_optimizer.step()  # type: ignore[union-attr]
             values += [(key, value, 1) for key, value in stats.items()]
         return loss, values
+
+
+class _WithExplorers(NamedTuple):
+    """A GSN batch and the explorer games' batch drawn with it (GSN-MAX's effect model)."""
+
+    data: Any
+    explorers: Any

@@ -260,6 +260,9 @@ class GSN(CommMethod):
             heard_dim=layout.channel_size if policy.gsn_reward_hears else 0,
             maximising_head=getattr(policy, "gsn_maximising_head", False),
             teammate_obs_dim=layout.obs_message_slice.start if policy.gsn_reward_sees_teammate else 0,
+            effect_obs_dim=layout.obs_message_slice.start
+            if getattr(policy, "gsn_effect_model", False)
+            else 0,
         )
 
     def messages(self, policy: TeamPolicy, obs: th.Tensor, out: th.Tensor) -> th.Tensor:
@@ -272,8 +275,51 @@ class GSN(CommMethod):
 class GSNMAX(GSN):
     r"""GSN-MAX (beyond the paper, its §8): grounded messages that also maximise the teammate's return.
 
-    The message is the GSN's hidden layer ``m_i = M(o_i; θm)``, as in GSN. Its extractor is
-    trained, in one Adam step per agent update, along a mix of two gradients *at the message*:
+    The message is the GSN's hidden layer ``m_i = tanh(M(o_i; θm))``, as in GSN.
+
+    **Effect search** (the packaged design: ``policy_kwargs`` ``gsn_effect_model=True``,
+    ``gsn_max_search=K``, ``gsn_max_explorers``). A message can raise the teammate's reward in two
+    ways: by what it *says* about the situation (Blind Soccer: where the ball is; the teammate
+    acts on it) and by what it *does* (Guess My Number: the reward is a function of the heard
+    message). GSN's grounding regression shapes the first. TCG's signal, ``∂Q_j(o'_j ⊕ m, a'_j)/∂m``
+    with the receiver's own critic, confounds the two: that critic knows the situation only from
+    the message, so its slope in the message is "which situation would make this action look
+    good", and following it makes the message say what the receiver wishes were true (on Blind
+    Soccer every design that followed it stood still). GSN-MAX's maximising signal is instead the
+    message's effect with the situation in view, learned apart from what the message says:
+
+    * **explorer games**: in a fraction ``gsn_max_explorers`` of the parallel games every agent
+      sends a uniformly random message; their transitions train only the effect models (never the
+      agents or the grounding), so in their data the message is independent of the situation;
+    * **effect models** ``E_1, E_2``: two centralised one-step models of an agent's own reward,
+      ``E_k(s_j, s_i, m_j, a_j) ≈ r_j`` (``s``: both agents' observations without the messages
+      heard), regressed on the explorer games' transitions (standardised rewards);
+    * **search**: for each message of a replayed batch, ``K`` candidates (half uniform in
+      [-1, 1], half around the sent message), judged by their *direct* effect at the next step,
+      the receiver's action held at its response to the sent message; ``E_1`` picks, ``E_2``
+      judges (as double Q-learning: the best of K noisy estimates is biased upwards)::
+
+          m* = argmax_c E_1(s'_j, s'_i, c, a'_j),    a'_j = μ_j(o'_j ⊕ m_i)
+          gain_k = E_k(s'_j, s'_i, m*, a'_j) − E_k(s'_j, s'_i, m_i, a'_j)
+          pulled ⇔ gain_2 > max(0.1, |gain_1 − gain_2|) (reward std) and the transition goes on
+
+    * **one Adam step** of the GSN per agent update on
+
+          L = L_g(M, R) + L_E(E_1, E_2) + λ · ½ mean_pulled ‖M(o_i) − atanh(m*)‖²,
+          λ = w / (1 − w) · R²_E
+
+      (the pull before the ``tanh``, so that a saturated message still moves), where ``R²_E`` is
+      the share of the reward's variance the effect models explain (a running average): no pull
+      while they know nothing. Where nothing is pulled the step is GSN's. On Blind Soccer a
+      message's direct effect is nil, so the search rarely pulls and the grounding solves the task
+      as GSN does; on Guess My Number the reward is the message's direct effect, and the pull moves
+      each message onto its teammate's number. ``gsn_max_signals`` switches either part off (the
+      ablations). Limits: one step ahead only (a message whose effect comes later is not
+      searched), and the effect models need parallel games to spare.
+
+    **Earlier designs** (options, measured in ``benchmarks/results/gsn_max_variants*.md``): the
+    extractor trained, in one Adam step per agent update, along a mix of two gradients *at the
+    message*:
 
     * **grounding** (GSN, paper eq. 2): ``d_g = ∂L_g/∂m`` with ``L_g = E[(R(m_i, a_j) − r_j)²]``;
       the reward model ``R`` is trained by ``L_g`` alone, as in GSN;
@@ -324,7 +370,9 @@ class GSNMAX(GSN):
     A maximising signal that is noise (the receiver's critic before it uses the messages) then
     moves ``H`` by a random walk of small steps instead of mixing into ``M``'s regression.
 
-    Status: this design does not yet solve either task reliably (README, "Beyond the paper").
+    Status of the earlier designs: none solved either task reliably (README, "Beyond the paper").
+    ``policy_kwargs`` ``gsn_effect_model=True`` without ``gsn_max_search`` follows the effect
+    models' gradient instead of the receiver critic's (:meth:`effect_gradients`; tried, not packaged).
     """
 
     name = "GSN-MAX"
@@ -386,9 +434,119 @@ class GSNMAX(GSN):
 
     @staticmethod
     def _maximising(policy: TeamPolicy, sent: th.Tensor, next_obs: th.Tensor, dones: th.Tensor) -> th.Tensor:
-        """``d_m``: the gradient of ``−E[Q_j]`` over the batch at the sent messages."""
-        ascent = TCG.receiver_message_gradients(policy, sent, next_obs, dones)
+        """``d_m``: the gradient of ``−E[Q_j]`` over the batch at the sent messages (or, with an
+        effect model, of ``−E[E_j]``: :meth:`effect_gradients`)."""
+        if policy.gsn is not None and policy.gsn.effect_model is not None:
+            ascent = GSNMAX.effect_gradients(policy, sent, next_obs, dones)
+        else:
+            ascent = TCG.receiver_message_gradients(policy, sent, next_obs, dones)
         return -ascent / ascent.shape[0]  # the gradient of −E[Q] in the batch mean's units
+
+    @staticmethod
+    def effect_gradients(
+        policy: TeamPolicy, sent: th.Tensor, next_obs: th.Tensor, dones: th.Tensor
+    ) -> th.Tensor:
+        r"""Each sender's message gradient from the effect model: the total derivative of the
+        receiver's one-step reward in the message, the situation held fixed::
+
+            g_i = (1 − d) · d/dm E_j(s'_j, s'_i, m, μ_j(o'_j ⊕ m)) at m = m_i
+
+        ``s'`` are the next observations without the messages heard, so the message's content
+        (which the situation already holds) is not what the gradient moves: only its effect, direct
+        (``∂E/∂m``, a reward caused by the message itself) and through the receiver's action
+        (``∂E/∂a · ∂μ_j/∂m``, the receiver's current actor).
+
+        :param policy: the team's policy (its GSN has an effect model).
+        :param sent: ``(B, 2, n)`` the senders' messages.
+        :param next_obs: ``(B, 2, obs_dim)`` next observations.
+        :param dones: ``(B, 1)`` terminal flags.
+        :return: ``(B, 2, n)`` ascent direction for each sender's message (the policy's
+            ``gsn_effect_paths`` may keep one path only: ``"action"`` or ``"direct"``).
+        """
+        gsn = policy.gsn
+        assert gsn is not None and gsn.effect_model is not None
+        start = policy.comm_layout.obs_message_slice.start
+        received = sent.detach().flip(1).clone().requires_grad_(True)  # row j hears its teammate
+        situation = next_obs[..., :start]
+        paths = getattr(policy, "gsn_effect_paths", "total")
+        with th.set_grad_enabled(paths != "direct"):  # the receiver's response to the message
+            response = policy.actor_outputs(th.cat([situation, received], dim=-1))
+        heard = received if paths != "action" else received.detach()
+        value = gsn.effect(situation, heard, response)
+        grad_received = th.autograd.grad(value.sum(), received)[0]
+        return grad_received.flip(1) * (1.0 - dones).unsqueeze(-1)
+
+    SEARCH_LOCAL_STD = 0.1
+    """Standard deviation of the effect search's local candidates around the sent message."""
+
+    SEARCH_MARGIN = 0.1
+    """The least gain (in standard deviations of the reward) of a candidate's direct effect over
+    the sent message's, by the judging effect model, for the effect search to pull towards it;
+    the gain must also exceed the two effect models' disagreement about it."""
+
+    @staticmethod
+    def search_targets(
+        policy: TeamPolicy, sent: th.Tensor, next_obs: th.Tensor, dones: th.Tensor, candidates: int
+    ) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
+        r"""The effect search's targets: for each sender ``i`` and receiver ``j``, the best of
+        ``candidates`` messages (half uniformly random, half the sent message plus Gaussian noise
+        of :data:`SEARCH_LOCAL_STD`, clipped) by the *direct* effect on the receiver's reward,
+        the receiver's action held at its response to the sent message, picked by the first
+        effect model and judged by the second (as double Q-learning: the best of many noisy
+        estimates is biased upwards, an independent one is not)::
+
+            m* = argmax_c E_1(s'_j, s'_i, c, a_j),    a_j = μ_j(o'_j ⊕ m_i)
+            gain = E_2(s'_j, s'_i, m*, a_j) − E_2(s'_j, s'_i, m_i, a_j)
+
+        It is a target where the gain exceeds both :data:`SEARCH_MARGIN` and the models'
+        disagreement about it, ``|gain_1 − gain_2|`` (a gain one model invents is not confirmed),
+        and the transition goes on (there is a next step to hear it); elsewhere the sent message is
+        its own target.
+        A message that only describes the situation changes nothing here (the situation is in
+        ``s'``); one that causes the receiver's reward (Guess My Number) does.
+
+        :param policy: the team's policy (its GSN has an effect model).
+        :param sent: ``(B, 2, n)`` the senders' messages.
+        :param next_obs: ``(B, 2, obs_dim)`` next observations.
+        :param dones: ``(B, 1)`` terminal flags.
+        :param candidates: number of random candidates per message.
+        :return: targets ``(B, 2, n)``, whether each sender's message is pulled ``(B, 2)`` (float),
+            and the best candidate's gain over the sent message ``(B, 2)``.
+        """
+        gsn = policy.gsn
+        assert gsn is not None and gsn.effect_model is not None
+        start = policy.comm_layout.obs_message_slice.start
+        with th.no_grad():
+            received = sent.detach().flip(1)  # row j hears its teammate
+            situation = next_obs[..., :start]
+            response = policy.actor_outputs(th.cat([situation, received], dim=-1))
+            batch, agents, size = received.shape
+            tried = (
+                th.rand((candidates, batch, agents, size), dtype=sent.dtype, device=sent.device) * 2.0 - 1.0
+            )
+            local = candidates // 2  # the second half near the sent message, to refine a found bump
+            if local:
+                noise = th.randn((local, batch, agents, size), dtype=sent.dtype, device=sent.device)
+                tried[candidates - local :] = (received + GSNMAX.SEARCH_LOCAL_STD * noise).clamp(-1.0, 1.0)
+            # the sent message last: the candidates and it, judged by both effect models
+            heard = th.cat([tried, received[None]]).reshape((candidates + 1) * batch, agents, size)
+            situations = situation.expand(candidates + 1, *situation.shape).reshape(
+                heard.shape[0], agents, -1
+            )
+            responses = response.expand(candidates + 1, *response.shape).reshape(heard.shape[0], agents, -1)
+            picker, judge = (
+                gsn.effect(situations, heard, responses, k).reshape(candidates + 1, batch, agents)
+                for k in (0, 1)
+            )
+            index = picker[:candidates].argmax(dim=0)  # E_1 picks a candidate, E_2 judges it
+            claimed = th.gather(picker[:candidates], 0, index[None])[0] - picker[candidates]
+            gain = th.gather(judge[:candidates], 0, index[None])[0] - judge[candidates]
+            # confirmed: the judge's gain is above a floor and above the two models' disagreement
+            confirmed = gain > th.clamp((claimed - gain).abs(), min=GSNMAX.SEARCH_MARGIN)
+            pulled = confirmed & (dones < 0.5)
+            best_messages = th.gather(tried, 0, index[None, ..., None].expand(1, batch, agents, size))[0]
+            targets = th.where(pulled[..., None], best_messages, received)
+        return targets.flip(1), pulled.flip(1).to(sent.dtype), gain.flip(1)
 
     @staticmethod
     def head_gradient(

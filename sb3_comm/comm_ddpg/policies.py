@@ -59,6 +59,12 @@ class CommPolicy(HybridPolicy):
         follows the receiver critic's gradient and ``M`` the regression alone
         (:class:`~sb3_comm.comm_ddpg.methods.GSNMAX`, "head design"); off: one extractor ``M``
         trained by the mix of both signals.
+    :param gsn_effect_model: GSN-MAX only: its maximising signal comes from a centralised one-step
+        effect model ``E`` of the receiver's reward (the situation without messages, the message
+        heard, the receiver's action), through the receiver's current actor
+        (:meth:`~sb3_comm.comm_ddpg.methods.GSNMAX.effect_gradients`); off: from the receiver's critic.
+    :param gsn_effect_paths: which paths of the message's effect that signal follows: ``"total"``
+        (both), ``"action"`` (only through the receiver's action) or ``"direct"`` (only ``∂E/∂m``).
     :param optimizer_class: optimizer of actor, critic and GSN.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
@@ -86,6 +92,8 @@ class CommPolicy(HybridPolicy):
         gsn_reward_hears: bool = False,
         gsn_maximising_head: bool = False,
         gsn_reward_sees_teammate: bool = False,
+        gsn_effect_model: bool = False,
+        gsn_effect_paths: str = "total",
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
@@ -105,6 +113,18 @@ class CommPolicy(HybridPolicy):
         self.gsn_reward_hears = bool(gsn_reward_hears)  # None in models saved with the first version
         self.gsn_maximising_head = bool(gsn_maximising_head)
         self.gsn_reward_sees_teammate = bool(gsn_reward_sees_teammate)
+        self.gsn_effect_model = bool(gsn_effect_model)
+        self.gsn_effect_paths = gsn_effect_paths
+        if self.gsn_effect_model and name != "GSN-MAX":
+            raise ValueError(
+                f"policy_kwargs gsn_effect_model=True applies to GSN-MAX only (it gives GSN-MAX's "
+                f"maximising signal); method {name} would never use it: leave it False"
+            )
+        if self.gsn_effect_model and self.gsn_maximising_head:
+            raise ValueError(
+                "policy_kwargs gsn_effect_model=True and gsn_maximising_head=True are two GSN-MAX designs; "
+                "choose one"
+            )
         if self.gsn_maximising_head and name != "GSN-MAX":
             raise ValueError(
                 f"policy_kwargs gsn_maximising_head=True applies to GSN-MAX only (a head trained by the "
@@ -223,6 +243,8 @@ class CommPolicy(HybridPolicy):
             gsn_reward_hears=self.gsn_reward_hears,
             gsn_maximising_head=self.gsn_maximising_head,
             gsn_reward_sees_teammate=self.gsn_reward_sees_teammate,
+            gsn_effect_model=self.gsn_effect_model,
+            gsn_effect_paths=self.gsn_effect_paths,
         )
         return data
 

@@ -291,6 +291,8 @@ POLICY_KWARGS: dict[str, Check] = {
     "gsn_normalize_rewards": Flag(),
     "gsn_maximising_head": Flag(),
     "gsn_reward_sees_teammate": Flag(),
+    "gsn_effect_model": Flag(),
+    "gsn_effect_paths": OneOf(("total", "action", "direct")),
     "score_gradient": OneOf(SCORE_GRADIENTS),
     "critic_layer_norm": Flag(),
 }
@@ -325,6 +327,8 @@ HYPERPARAMETERS: dict[str, Check] = {
     "gsn_max_centred": Flag(),
     "gsn_max_gain": Range(0.0, low_open=True, special=(None,), hint="None: each signal scaled to unit RMS"),
     "gsn_max_sgd": Range(0.0, low_open=True, special=(None,), hint="None: one Adam step on the mix"),
+    "gsn_max_search": Range(1, whole=True, special=(None,), hint="None: the effect model's gradient"),
+    "gsn_max_explorers": Range(0.0, 1.0, high_open=True),
     "buffer_size": SIZE,
     "learning_starts": Range(0, whole=True),
     "batch_size": SIZE,

@@ -1,0 +1,311 @@
+"""GSN-MAX's effect search (``gsn_max_search``, ``gsn_max_explorers`` and ``policy_kwargs``
+``gsn_effect_model=True``): two centralised one-step effect models of the receiver's reward,
+explorer games that send random messages for them, and a pull of each message towards the best
+candidate by the messages' direct effect; where nothing is pulled the step is GSN's."""
+
+from __future__ import annotations
+
+import copy
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import torch as th
+from stable_baselines3.common.env_util import make_vec_env
+from test_gsn_max import params, sample
+from toy_envs import coin_env
+
+from sb3_comm import CommDDPG
+from sb3_comm.comm_ddpg import GSNTrainingCallback
+from sb3_comm.comm_ddpg.methods import GSNMAX
+from sb3_comm.common.networks import gradient_step
+
+LR = 1e-3
+SMALL = {"net_arch": [32, 32], "gsn_net_arch": [16], "gsn_reward_net_arch": [16], "gsn_effect_model": True}
+
+
+def search_model(n_envs: int = 4, signals: str = "both", **kwargs) -> CommDDPG:
+    """A GSN-MAX model with effect models and one explorer game in four, whose replay holds 240
+    joint transitions and which has made no update yet."""
+    vec = make_vec_env(coin_env, n_envs=n_envs, seed=0)
+    settings = {"gsn_max_search": 8, "gsn_max_explorers": 0.25, "gsn_max_explore_messages": False, **kwargs}
+    model = CommDDPG(
+        "GSN-MAX", vec, batch_size=16, learning_starts=10_000, gsn_learning_rate=LR, gsn_max_signals=signals,
+        share_parameters=False, seed=0, device="cpu", policy_kwargs=SMALL, **settings,
+    )  # fmt: skip
+    model.learn(240)
+    assert model.n_updates == 0 and not model.policy.gsn.optimizer.state_dict()["state"]
+    return model
+
+
+class Bump(th.nn.Module):
+    """A stand-in effect model: a bump of height 3 at ``centre`` in input ``index`` (the heard
+    message)."""
+
+    def __init__(self, index: int, centre: float) -> None:
+        super().__init__()
+        self.index, self.centre = index, centre
+
+    def forward(self, x: th.Tensor) -> th.Tensor:
+        return 3.0 * th.exp(-20.0 * (x[..., self.index : self.index + 1] - self.centre) ** 2)
+
+
+def test_explorer_games_send_random_messages_and_only_train_the_effect_models() -> None:
+    model = search_model()
+    buffer, layout = model.replay_buffer, model.comm_layout
+    assert model.explorer_envs == buffer.explorer_envs == 1
+    # acting: the last game's messages are uniformly random, the others' are M(o)
+    model._last_obs = model.env.reset()
+    model.num_timesteps = 10**6  # past the warm-up; messages are not explored otherwise
+    model.exploration_rate = 0.0
+    _, actions = model._sample_action(learning_starts=0, n_envs=4)
+    rows = actions.reshape(4, layout.n_agents, layout.action_dim)
+    sent = model.policy._predict(th.as_tensor(model._last_obs)).detach().numpy()
+    sent = sent.reshape(4, layout.n_agents, layout.action_dim)
+    sl = layout.action_message_slice
+    np.testing.assert_allclose(rows[:3], sent[:3], atol=1e-6)
+    assert not np.allclose(rows[3, :, sl], sent[3, :, sl])
+    # replay: the agents' (and the grounding's) batches never hold an explorer game's transition
+    stored = buffer.actions[: buffer.pos, :, :, sl]
+    explorer_messages = {float(v) for v in stored[:, 3].ravel()}
+    for _ in range(20):
+        drawn = buffer.sample(16).actions[..., sl].numpy().ravel()
+        assert not explorer_messages & {float(v) for v in drawn}
+    # ... and the effect models' batches hold only those
+    drawn = buffer.sample_explorers(64).actions[..., sl].numpy().ravel()
+    assert {float(v) for v in drawn} <= explorer_messages
+
+
+def test_without_explorer_games_the_buffer_samples_as_before() -> None:
+    vec = make_vec_env(coin_env, n_envs=2, seed=0)
+    model = CommDDPG("GSN-MAX", vec, learning_starts=10_000, seed=0, policy_kwargs={**SMALL})
+    model.learn(40)
+    assert model.explorer_envs == 0 and model.replay_buffer.explorer_envs == 0
+    np.random.seed(3)
+    inds = np.random.randint(0, 20, size=16), np.random.randint(0, 2, size=16)
+    np.random.seed(3)
+    drawn = model.replay_buffer.sample(16)
+    th.testing.assert_close(
+        drawn.observations, model.replay_buffer.to_torch(model.replay_buffer.observations[inds])
+    )
+    with pytest.raises(ValueError, match="no explorer games"):
+        model.replay_buffer.sample_explorers(4)
+
+
+def test_the_search_pulls_towards_the_candidate_both_effect_models_find_better() -> None:
+    model = search_model()
+    policy, gsn = model.policy, model.policy.gsn
+    layout = model.comm_layout
+    data = sample(model)
+    sent = gsn.message(data.observations).detach()
+    # stand-in effect models: a bump at +0.5 in the heard message (its input column comes after
+    # both situations)
+    column = 2 * layout.obs_message_slice.start
+    for k in range(2):
+        gsn.effect_model[k] = _PerAgent(th.nn.ModuleList([Bump(column, 0.5), Bump(column, 0.5)]))
+    dones = th.zeros_like(data.dones)
+    dones[:4] = 1.0
+    th.manual_seed(11)
+    targets, pulled, gain = GSNMAX.search_targets(policy, sent, data.next_observations, dones, 64)
+    th.manual_seed(11)
+    tried = th.rand((64, *sent.shape)) * 2.0 - 1.0  # the same draws, in heard (receiver) order
+    received = sent.flip(1)
+    tried[32:] = (received + GSNMAX.SEARCH_LOCAL_STD * th.randn((32, *sent.shape))).clamp(-1.0, 1.0)
+    index = (-(tried[..., 0] - 0.5).pow(2)).argmax(dim=0)  # the bump reads the first entry
+    best = th.gather(tried, 0, index[None, ..., None].expand(1, *sent.shape))[0]
+    bump = lambda m: 3.0 * th.exp(-20.0 * (m[..., 0] - 0.5) ** 2)  # noqa: E731
+    expected_gain = bump(best) - bump(received)
+    th.testing.assert_close(gain, expected_gain.flip(1))
+    # both models agree (no disagreement): pulled where the gain exceeds the floor
+    expected_pulled = (expected_gain > GSNMAX.SEARCH_MARGIN) & (dones < 0.5)
+    th.testing.assert_close(pulled, expected_pulled.flip(1).float())
+    assert pulled.sum() > 0 and pulled[:4].sum() == 0  # terminal transitions are never pulled
+    expected_targets = th.where(expected_pulled[..., None], best, received).flip(1)
+    th.testing.assert_close(targets, expected_targets)
+
+
+class _PerAgent(th.nn.Module):
+    """Two stand-in networks applied per agent row, as :class:`AgentMLPs` with
+    ``share_parameters=False``."""
+
+    def __init__(self, nets: th.nn.ModuleList) -> None:
+        super().__init__()
+        self.nets = nets
+
+    def forward(self, x: th.Tensor) -> th.Tensor:
+        return th.stack([net(x[:, i]) for i, net in enumerate(self.nets)], dim=1)
+
+
+def one_update(model: CommDDPG, sample_seed: int = 7) -> GSNTrainingCallback:
+    callback = GSNTrainingCallback(
+        model.gsn_learning_rate, 16, model.max_grad_norm, max_weight=model.gsn_max_weight,
+        signals=model.gsn_max_signals, search=model.gsn_max_search,
+    )  # fmt: skip
+    callback.init_callback(model)
+    np.random.seed(sample_seed)
+    th.manual_seed(sample_seed)
+    callback.train_gsn(1)
+    return callback
+
+
+def test_where_nothing_is_pulled_the_message_network_takes_gsns_step() -> None:
+    """With the pull's weight at 0 (the effect models explain nothing yet: R² = 0), one update moves
+    ``M`` and ``R`` exactly as GSN's regression step, and the effect models by their own loss."""
+    model = search_model()
+    gsn = model.policy.gsn
+    reference = copy.deepcopy(gsn).train(True)
+    reference.optimizer = th.optim.Adam(reference.parameters(), lr=LR)
+    np.random.seed(7)
+    data = model.replay_buffer.sample(16)
+    explorers = model.replay_buffer.sample_explorers(16)
+    loss = reference.loss(data.observations, data.actions, data.rewards)
+    effect_loss = reference.effect_loss(explorers.observations, explorers.actions, explorers.rewards)
+    target = reference.eval().effect_target(explorers.rewards)  # standardised, moments as updated
+    r2 = (1.0 - effect_loss.detach() / target.var(unbiased=False)).clamp(0.0, 1.0)
+    gradient_step(reference.optimizer, loss + effect_loss, model.max_grad_norm)
+
+    assert float(gsn.effect_r2) == 0.0
+    one_update(model)
+    for mine, theirs in zip(gsn.parameters(), reference.parameters(), strict=True):
+        th.testing.assert_close(mine, theirs)
+    # the running R² moved by one batch's share, for the next update's pull
+    th.testing.assert_close(gsn.effect_r2, GSNTrainingCallback.EFFECT_R2_RATE * r2)
+
+
+@pytest.mark.parametrize("signals", ["both", "grounding", "maximising"])
+def test_the_signals_switch_the_grounding_and_the_pull(signals: str) -> None:
+    model = search_model(signals=signals)
+    gsn = model.policy.gsn
+    gsn.effect_r2.fill_(1.0)  # the pull at its full weight w / (1 − w) = 1
+    extractor_before = params(gsn.message_extractor)
+    reward_before = params(gsn.reward_model)
+    callback = one_update(model)
+    moved = [
+        not th.equal(a, b) for a, b in zip(extractor_before, gsn.message_extractor.parameters(), strict=True)
+    ]
+    logged = {key for key, *_ in callback.model.train_log.pop_means().items()}
+    assert any(not th.equal(a, b) for a, b in zip(reward_before, gsn.reward_model.parameters(), strict=True))
+    if signals == "grounding":
+        assert "gsn/search_pulled" not in logged and any(moved)
+    else:
+        assert "gsn/search_pulled" in logged
+
+
+def test_the_pull_is_the_gradient_of_half_the_squared_distance_before_the_tanh() -> None:
+    model = search_model(signals="maximising")
+    gsn = model.policy.gsn
+    obs = sample(model).observations
+    raw = gsn.message_extractor(obs)
+    targets = th.full_like(raw, 0.5)
+    pulled = th.ones(raw.shape[:-1])
+    pull = 0.5 * ((raw - th.atanh(targets)).pow(2).sum(-1) * pulled).mean()
+    grad = th.autograd.grad(pull, raw)[0]
+    th.testing.assert_close(grad, (raw - th.atanh(targets)) / pulled.numel())
+
+
+def test_save_load_keeps_the_effect_models_and_the_settings(tmp_path) -> None:
+    model = search_model()
+    one_update(model)
+    path = tmp_path / "search.zip"
+    model.save(path)
+    loaded = CommDDPG.load(path, env=make_vec_env(coin_env, n_envs=4, seed=0), device="cpu")
+    assert (loaded.gsn_max_search, loaded.gsn_max_explorers, loaded.explorer_envs) == (8, 0.25, 1)
+    assert loaded.replay_buffer is None or loaded.replay_buffer.explorer_envs == 1
+    assert loaded.policy.gsn.effect_model is not None
+    for a, b in zip(
+        model.policy.gsn.state_dict().values(), loaded.policy.gsn.state_dict().values(), strict=True
+    ):
+        th.testing.assert_close(a, b)
+    loaded.learn(40)  # and it trains on
+
+
+def test_bad_settings_are_a_clear_error() -> None:
+    vec = make_vec_env(coin_env, n_envs=2)
+    with pytest.raises(ValueError, match="needs policy_kwargs gsn_effect_model=True"):
+        CommDDPG("GSN-MAX", vec, gsn_max_search=8)
+    with pytest.raises(ValueError, match="gsn_max_search applies to GSN-MAX only"):
+        CommDDPG("GSN", vec, gsn_max_search=8)
+    with pytest.raises(ValueError, match="gsn_max_explorers applies to GSN-MAX only"):
+        CommDDPG("TCG", vec, gsn_max_explorers=0.25)
+    with pytest.raises(ValueError, match="gsn_max_search must be a whole number"):
+        CommDDPG("GSN-MAX", vec, gsn_max_search=0, policy_kwargs={"gsn_effect_model": True})
+    with pytest.raises(ValueError, match="gsn_max_explorers must be a number in"):
+        CommDDPG("GSN-MAX", vec, gsn_max_explorers=1.0, policy_kwargs={"gsn_effect_model": True})
+    with pytest.raises(ValueError, match="leaves none to the agents"):
+        CommDDPG("GSN-MAX", make_vec_env(coin_env, n_envs=1), gsn_max_explorers=0.5,
+                 policy_kwargs={"gsn_effect_model": True})  # fmt: skip
+    with pytest.raises(ValueError, match="explorer games feed GSN-MAX's effect model"):
+        CommDDPG("GSN-MAX", vec, gsn_max_explorers=0.5)
+    with pytest.raises(ValueError, match="gsn_effect_model=True applies to GSN-MAX only"):
+        CommDDPG("GSN", vec, policy_kwargs={"gsn_effect_model": True})
+    with pytest.raises(ValueError, match="choose one"):
+        CommDDPG("GSN-MAX", vec, policy_kwargs={"gsn_effect_model": True, "gsn_maximising_head": True})
+    with pytest.raises(ValueError, match=r"\['gsn_effect_paths'\] must be 'total' or 'action' or 'direct'"):
+        CommDDPG("GSN-MAX", vec, policy_kwargs={"gsn_effect_model": True, "gsn_effect_paths": "both"})
+
+
+def test_one_update_follows_the_grounding_and_the_pull_by_hand(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With R²_E ≈ 1 the step is Adam's first step on ``L_g + L_E + λ·½ mean ‖raw − atanh(m*)‖²``,
+    ``λ = w / (1 − w) · R²_E`` (w = 0.5), the pull taken before the ``tanh``, on the rows the search
+    pulls."""
+    model = search_model()
+    policy, gsn = model.policy, model.policy.gsn
+    gsn.effect_r2.fill_(1.0)  # w / (1 − w) · R² = 1 at w = 0.5
+    monkeypatch.setattr(GSNMAX, "SEARCH_MARGIN", 0.0)  # fresh effect models barely vary: pull on any gain
+    reference = copy.deepcopy(gsn).train(True)
+    np.random.seed(7)
+    th.manual_seed(7)
+    data = model.replay_buffer.sample(16)
+    explorers = model.replay_buffer.sample_explorers(16)
+    raw = reference.message_extractor(data.observations)
+    messages = th.tanh(raw)
+    loss = reference.loss(data.observations, data.actions, data.rewards, messages=messages)
+    effect_loss = reference.effect_loss(explorers.observations, explorers.actions, explorers.rewards)
+    target = reference.eval().effect_target(explorers.rewards)
+    reference.train(True)
+    r2 = (1.0 - effect_loss.detach() / target.var(unbiased=False)).clamp(0.0, 1.0)
+    weight = 1.0 + GSNTrainingCallback.EFFECT_R2_RATE * (r2 - 1.0)  # the running R², this batch in
+    loss = loss + effect_loss
+    reference_policy = SimpleNamespace(
+        gsn=reference, comm_layout=policy.comm_layout, actor_outputs=policy.actor_outputs
+    )
+    targets, pulled, _ = GSNMAX.search_targets(
+        reference_policy, messages.detach(), data.next_observations, data.dones, model.gsn_max_search
+    )
+    assert 0 < pulled.sum() < pulled.numel()  # some rows pulled, some not
+    distance = (raw - th.atanh(targets.clamp(-0.995, 0.995))).pow(2).sum(-1)
+    loss = loss + weight * 0.5 * (distance * pulled).mean()
+    grads = th.autograd.grad(loss, list(reference.parameters()), allow_unused=True)
+
+    before = params(gsn)
+    one_update(model)
+    for b, a, g in zip(before, gsn.parameters(), grads, strict=True):
+        if g is None:
+            assert th.equal(a, b)
+            continue
+        big = g.abs() > 1e-6
+        th.testing.assert_close((a - b)[big], (-LR * g / (g.abs() + 1e-8))[big], rtol=1e-3, atol=1e-9)
+
+
+def test_a_gain_the_two_effect_models_disagree_about_is_not_pulled() -> None:
+    """``E_1`` sees a bump of height 3 at +0.5, ``E_2`` the same bump at height ``h``: the judged
+    gain ``h·Δ`` must exceed the disagreement ``(3 − h)·Δ`` (and the floor)."""
+    model = search_model()
+    policy, gsn = model.policy, model.policy.gsn
+    data = sample(model)
+    sent = gsn.message(data.observations).detach()
+    column = 2 * model.comm_layout.obs_message_slice.start
+    pulls = {}
+    for height in (1.0, 2.0, 3.0):
+        judge = Bump(column, 0.5)
+        judge.forward = lambda x, judge=judge, height=height: Bump.forward(judge, x) * height / 3.0
+        gsn.effect_model[0] = _PerAgent(th.nn.ModuleList([Bump(column, 0.5), Bump(column, 0.5)]))
+        gsn.effect_model[1] = _PerAgent(th.nn.ModuleList([judge, judge]))
+        th.manual_seed(5)
+        _, pulled, gain = GSNMAX.search_targets(policy, sent, data.next_observations, data.dones, 64)
+        claimed = gain * 3.0 / height
+        expected = (gain > (claimed - gain).abs().clamp(min=GSNMAX.SEARCH_MARGIN)) & (data.dones < 0.5)
+        th.testing.assert_close(pulled, expected.float())
+        pulls[height] = int(pulled.sum())
+    assert pulls[1.0] == 0  # the judge sees a third of the claimed gain: never confirmed
+    assert pulls[3.0] >= pulls[2.0] > 0  # two thirds or all of it: confirmed above the floor
