@@ -33,10 +33,24 @@ DESIGNS = {
     "v4": "v3 + the reward model also hears the message the teammate heard (the sender's previous one)",
     "v5": "v4 + inverting gradients on the mixed gradient instead, and linear messages "
     "(gsn_message_activation linear)",
-    "v6 (kept)": "v5 without the heard message in the reward model: the packaged zoo_configs/gsn-max.yml",
+    "v6": "v5 without the heard message in the reward model: zoo_configs/gsn-max.yml until v10",
     "v7 (head)": "v6 with a maximising head (policy_kwargs gsn_maximising_head): m = M(o) + H(o); M and R "
     "trained by the regression alone (tanh messages, as GSN), H (output layer zero at the start) by the "
     "receiver's critic alone, with its own Adam at the actor's learning rate",
+    "v8 (effect gradient)": "v6's unit-RMS mix, but the maximising signal is the gradient of a "
+    "centralised one-step effect model of the receiver's reward, E(s_j, s_i, m, mu_j(o_j + m)) (both "
+    "agents' observations without the heard messages, the heard message, the receiver's response), "
+    "trained on the replay; linear messages; no message exploration",
+    "v9 (effect search)": "GSN's step on M and R (tanh messages), plus a pull of each message towards "
+    "the best of 16 uniform candidates by one effect model's direct effect (receiver's action held "
+    "fixed), where it beats the sent message by 0.5 reward std; pull weight w/(1-w) times the effect "
+    "model's R^2; explorer games (1 in 8) send random messages and train only the effect model",
+    "v9b": "v9 with two effect models (one picks the candidate, the other judges it) and the pull "
+    "taken before the tanh",
+    "v9c": "v9b with half the candidates near the sent message (Gaussian, std 0.1)",
+    "v10 (kept)": "v9c with a pull only where the judged gain exceeds the two models' disagreement "
+    "(|gain_1 - gain_2|, floor 0.1 reward std); w 0.8, explorer games 1 in 4: the packaged "
+    "zoo_configs/gsn-max.yml",
 }
 """The designs, in the order they were tried; each variant below is one of them plus its overrides."""
 
@@ -63,19 +77,34 @@ VERSIONS = {
     "bs_v5_maximising_only": "v5",
     "gmn_v5_w0.1": "v5",
     "bs_v5_w0.1_400k": "v5",
-    "gmn_v6": "v6 (kept)",
-    "bs_v6": "v6 (kept)",
-    "bs_v6_w0.1_400k": "v6 (kept)",
+    "gmn_v6": "v6",
+    "bs_v6": "v6",
+    "bs_v6_w0.1_400k": "v6",
     "bs_v7_head": "v7 (head)",
     "gmn_v7_head": "v7 (head)",
     "bs_v7_head_explore": "v7 (head)",
     "gmn_v7_head_explore": "v7 (head)",
+    "bs_v8": "v8 (effect gradient)",
+    "gmn_v8": "v8 (effect gradient)",
+    "bs_v9": "v9 (effect search)",
+    "gmn_v9": "v9 (effect search)",
+    "bs_v9b": "v9b",
+    "gmn_v9b": "v9b",
+    "gmn_v9c": "v9c",
+    "bs_v9c_grounding_only": "v9c",
+    "gmn_v9c_w0.8": "v9c",
+    "bs_v9c_w0.8": "v9c",
+    "gmn_v9c_w0.8_explorers0.25": "v9c",
+    "gmn_v10": "v10 (kept)",
+    "bs_v10": "v10 (kept)",
+    "v10_5seeds": "v10 (kept)",
+    "v10_ablation": "v10 (kept)",
 }
-"""The design each variant ran with (any other: v6, the kept one)."""
+"""The design each variant ran with (any other: v6, the one packaged before v10)."""
 
 
 def _design(name: str) -> str:
-    version = VERSIONS.get(name, "v6 (kept)")
+    version = VERSIONS.get(name, "v6")
     return f"{version}: {DESIGNS[version]}"
 
 
@@ -84,7 +113,7 @@ def _row(variant: str, run: dict[str, Any], oracle: float, overrides: list[str])
     final = run.get("final", {}).get("none", {}).get("mean_return")
     return {
         "variant": variant,
-        "version": VERSIONS.get(variant, "v6 (kept)"),
+        "version": VERSIONS.get(variant, "v6"),
         "design": _design(variant),
         "task": run["task"],
         "seed": run["seed"],
@@ -121,6 +150,11 @@ def main() -> None:
         default=[],
         help="NAME=FILE: more results of `benchmarks/solve.py --methods GSN-MAX` (its JSON), under NAME",
     )
+    parser.add_argument(
+        "--only-given",
+        action="store_true",
+        help="only the results named here (not every benchmarks/results/gsn_max_variant_*.json)",
+    )
     parser.add_argument("--name", default="gsn_max_variants")
     args = parser.parse_args()
 
@@ -137,6 +171,7 @@ def main() -> None:
     solves = [
         (path.stem.removeprefix("gsn_max_variant_"), path)
         for path in sorted(RESULTS_DIR.glob("gsn_max_variant_*.json"))
+        if not args.only_given
     ]
     solves += [(label, Path(file)) for label, _, file in (item.partition("=") for item in args.solves)]
     for variant, path in solves:
@@ -187,7 +222,7 @@ def main() -> None:
             f"| {r['variant']} | {r['version']} | {r['task']} | {r['seed']} | {r['timesteps']:,} | "
             f"{' '.join(r['overrides']) or '—'} | {curve} | {final} | {fraction} | {zeroed} |"
         )
-    designs = "\n".join(f"- {text}" for text in DESIGNS.values())
+    designs = "\n".join(f"- **{version}**: {text}" for version, text in DESIGNS.items())
     notes = (
         "\n\nDesigns (the code of each version; a variant is a design plus the overrides shown):\n\n"
         f"{designs}\n\nBudgets below the packaged ones (150k on Guess My Number, 400k on Blind Soccer) "

@@ -301,7 +301,7 @@ class GSNMAX(GSN):
 
           m* = argmax_c E_1(s'_j, s'_i, c, a'_j),    a'_j = μ_j(o'_j ⊕ m_i)
           gain_k = E_k(s'_j, s'_i, m*, a'_j) − E_k(s'_j, s'_i, m_i, a'_j)
-          pulled ⇔ gain_2 > max(0.1, |gain_1 − gain_2|) (reward std) and the transition goes on
+          pulled ⇔ gain_2 > max(√(1 − R²_E), 0.1, |gain_1 − gain_2|) (reward std), transition goes on
 
     * **one Adam step** of the GSN per agent update on
 
@@ -482,7 +482,8 @@ class GSNMAX(GSN):
     SEARCH_MARGIN = 0.1
     """The least gain (in standard deviations of the reward) of a candidate's direct effect over
     the sent message's, by the judging effect model, for the effect search to pull towards it;
-    the gain must also exceed the two effect models' disagreement about it."""
+    the gain must also exceed the effect models' error (their RMS residual, ``sqrt(1 − R²_E)``)
+    and the two models' disagreement about it."""
 
     @staticmethod
     def search_targets(
@@ -498,10 +499,11 @@ class GSNMAX(GSN):
             m* = argmax_c E_1(s'_j, s'_i, c, a_j),    a_j = μ_j(o'_j ⊕ m_i)
             gain = E_2(s'_j, s'_i, m*, a_j) − E_2(s'_j, s'_i, m_i, a_j)
 
-        It is a target where the gain exceeds both :data:`SEARCH_MARGIN` and the models'
-        disagreement about it, ``|gain_1 − gain_2|`` (a gain one model invents is not confirmed),
-        and the transition goes on (there is a next step to hear it); elsewhere the sent message is
-        its own target.
+        It is a target where the gain exceeds the effect models' error, ``sqrt(1 − R²_E)`` (their
+        RMS residual in reward standard deviations, at least :data:`SEARCH_MARGIN`: a gain smaller
+        than what the models get wrong is not trusted), and the models' disagreement about it,
+        ``|gain_1 − gain_2|`` (a gain one model invents is not confirmed), and the transition goes
+        on (there is a next step to hear it); elsewhere the sent message is its own target.
         A message that only describes the situation changes nothing here (the situation is in
         ``s'``); one that causes the receiver's reward (Guess My Number) does.
 
@@ -541,8 +543,10 @@ class GSNMAX(GSN):
             index = picker[:candidates].argmax(dim=0)  # E_1 picks a candidate, E_2 judges it
             claimed = th.gather(picker[:candidates], 0, index[None])[0] - picker[candidates]
             gain = th.gather(judge[:candidates], 0, index[None])[0] - judge[candidates]
-            # confirmed: the judge's gain is above a floor and above the two models' disagreement
-            confirmed = gain > th.clamp((claimed - gain).abs(), min=GSNMAX.SEARCH_MARGIN)
+            # confirmed: the judge's gain is above the models' own error and their disagreement
+            error = (1.0 - gsn.effect_r2).clamp(min=0.0).sqrt()  # RMS residual, in reward std
+            floor = th.clamp(error, min=GSNMAX.SEARCH_MARGIN)
+            confirmed = gain > th.maximum((claimed - gain).abs(), floor)
             pulled = confirmed & (dones < 0.5)
             best_messages = th.gather(tried, 0, index[None, ..., None].expand(1, batch, agents, size))[0]
             targets = th.where(pulled[..., None], best_messages, received)
