@@ -48,9 +48,10 @@ DESIGNS = {
     "v9b": "v9 with two effect models (one picks the candidate, the other judges it) and the pull "
     "taken before the tanh",
     "v9c": "v9b with half the candidates near the sent message (Gaussian, std 0.1)",
-    "v10 (kept)": "v9c with a pull only where the judged gain exceeds the two models' disagreement "
-    "(|gain_1 - gain_2|, floor 0.1 reward std); w 0.8, explorer games 1 in 4: the packaged "
-    "zoo_configs/gsn-max.yml",
+    "v10": "v9c with a pull only where the judged gain exceeds the two models' disagreement "
+    "(|gain_1 - gain_2|, floor 0.1 reward std); w 0.8, explorer games 1 in 4",
+    "v11 (kept)": "v10 with a pull only where the judged gain also exceeds the effect models' own "
+    "error (their RMS residual, sqrt(1 - R^2_E)): the packaged zoo_configs/gsn-max.yml",
 }
 """The designs, in the order they were tried; each variant below is one of them plus its overrides."""
 
@@ -95,10 +96,11 @@ VERSIONS = {
     "gmn_v9c_w0.8": "v9c",
     "bs_v9c_w0.8": "v9c",
     "gmn_v9c_w0.8_explorers0.25": "v9c",
-    "gmn_v10": "v10 (kept)",
-    "bs_v10": "v10 (kept)",
-    "v10_5seeds": "v10 (kept)",
-    "v10_ablation": "v10 (kept)",
+    "gmn_v10": "v10",
+    "bs_v10": "v10",
+    "v10_5seeds_stopped": "v10",
+    "v11_5seeds": "v11 (kept)",
+    "v11_ablation": "v11 (kept)",
 }
 """The design each variant ran with (any other: v6, the one packaged before v10)."""
 
@@ -205,7 +207,9 @@ def main() -> None:
             run = json.loads(result.read_text())
             if run.get("status") != "done":
                 continue
-            rows.append(_row(label, run, oracle(run["task"]), [f"experiment {folder}"]))
+            signals = (run.get("hyperparams") or {}).get("gsn_max_signals", "both")
+            shown = [f"experiment {folder}", *([f"gsn_max_signals={signals}"] if signals != "both" else [])]
+            rows.append(_row(label, run, oracle(run["task"]), shown))
 
     rows.sort(key=lambda r: (r["version"], r["task"], r["variant"], r["seed"]))
     lines = [
