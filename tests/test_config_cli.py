@@ -40,7 +40,10 @@ def test_gsn_max_has_one_configuration_for_both_tasks() -> None:
     differ = {k for k in soccer.hyperparams.keys() | number.hyperparams.keys()
               if soccer.hyperparams.get(k) != number.hyperparams.get(k)}  # fmt: skip
     assert differ == {"gamma"}
-    assert soccer.hyperparams["gsn_max_weight"] == 0.5
+    # the effect search (README, "Beyond the paper"): effect models, 16 candidates, explorer games
+    assert soccer.hyperparams["gsn_max_weight"] == 0.8
+    assert (soccer.hyperparams["gsn_max_search"], soccer.hyperparams["gsn_max_explorers"]) == (16, 0.25)
+    assert soccer.hyperparams["policy_kwargs"]["gsn_effect_model"] is True
 
 
 def test_config_errors_name_the_problem(tmp_path) -> None:

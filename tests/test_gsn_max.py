@@ -1,5 +1,6 @@
-"""GSN-MAX: the message extractor is trained by the grounding regression and by the receiver
-critic's gradient, each with its own Adam; either signal can be switched off."""
+"""GSN-MAX's earlier design (``policy_kwargs`` ``gsn_effect_model=False``): the message extractor
+is trained by the grounding regression and by the receiver critic's gradient; either signal can be
+switched off. The effect search, the default, is tested in ``test_gsn_max_search.py``."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from sb3_comm.comm_ddpg import GSNTrainingCallback
 from sb3_comm.comm_ddpg.methods import TCG
 
 LR, WEIGHT = 1e-3, 0.3
+EARLIER = {"gsn_effect_model": False}  # the receiver critic's signal, not the effect search
 
 
 def replay_filled_model(signals: str = "both", **kwargs) -> CommDDPG:
@@ -31,7 +33,7 @@ def replay_filled_model(signals: str = "both", **kwargs) -> CommDDPG:
         gsn_max_weight=WEIGHT,
         gsn_max_signals=signals,
         share_parameters=False,
-        policy_kwargs={"net_arch": [32, 32], "gsn_net_arch": [16], "gsn_reward_net_arch": [16]},
+        policy_kwargs={**EARLIER, "net_arch": [32, 32], "gsn_net_arch": [16], "gsn_reward_net_arch": [16]},
         seed=0,
         device="cpu",
         **kwargs,
@@ -258,7 +260,7 @@ def test_the_reward_model_can_also_hear_what_the_teammate_heard(tmp_path) -> Non
     teammate's row); by default (GSN-MAX's configuration, and GSN, the paper) it does not."""
     assert replay_filled_model().policy.gsn.heard_dim == 0
     vec = make_vec_env(coin_env, n_envs=2, seed=0)
-    kwargs = {"net_arch": [32, 32], "gsn_net_arch": [16], "gsn_reward_hears": True}
+    kwargs = {**EARLIER, "net_arch": [32, 32], "gsn_net_arch": [16], "gsn_reward_hears": True}
     model = CommDDPG("GSN-MAX", vec, share_parameters=False, policy_kwargs=kwargs, seed=0, device="cpu")
     gsn = model.policy.gsn
     n, obs_dim = model.comm_layout.channel_size, model.comm_layout.obs_dim
@@ -336,7 +338,8 @@ def test_the_maximising_share_is_logged_for_gsn_maxs_mix_only() -> None:
         vec = make_vec_env(coin_env, n_envs=2, seed=0)
         model = CommDDPG(
             method, vec, batch_size=16, learning_starts=20, share_parameters=False, seed=0, device="cpu",
-            policy_kwargs={"net_arch": [32, 32], "gsn_net_arch": [16], "gsn_reward_net_arch": [16]},
+            policy_kwargs={"net_arch": [32, 32], "gsn_net_arch": [16], "gsn_reward_net_arch": [16]}
+            | (EARLIER if method == "GSN-MAX" else {}),
             **({"gsn_max_weight": WEIGHT} if method == "GSN-MAX" else {}),
         )  # fmt: skip
         model.learn(60)
@@ -447,6 +450,6 @@ def test_the_plain_maximising_step_adds_to_the_groundings_adam_step() -> None:
     assert any(p.abs().max() > 1e-6 for p in plain)
     vec = make_vec_env(coin_env, n_envs=1)
     with pytest.raises(ValueError, match="gsn_max_sgd steps the two signals apart"):
-        CommDDPG("GSN-MAX", vec, gsn_max_sgd=1.0, gsn_max_signals="grounding")
+        CommDDPG("GSN-MAX", vec, gsn_max_sgd=1.0, gsn_max_signals="grounding", policy_kwargs=EARLIER)
     with pytest.raises(ValueError, match="gsn_max_sgd applies to GSN-MAX only"):
         CommDDPG("GSN", vec, gsn_max_sgd=1.0)

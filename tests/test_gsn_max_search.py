@@ -78,7 +78,9 @@ def test_explorer_games_send_random_messages_and_only_train_the_effect_models() 
 
 def test_without_explorer_games_the_buffer_samples_as_before() -> None:
     vec = make_vec_env(coin_env, n_envs=2, seed=0)
-    model = CommDDPG("GSN-MAX", vec, learning_starts=10_000, seed=0, policy_kwargs={**SMALL})
+    model = CommDDPG(
+        "GSN-MAX", vec, learning_starts=10_000, seed=0, gsn_max_explorers=0.0, policy_kwargs={**SMALL}
+    )
     model.learn(40)
     assert model.explorer_envs == 0 and model.replay_buffer.explorer_envs == 0
     np.random.seed(3)
@@ -203,21 +205,22 @@ def test_save_load_keeps_the_effect_models_and_the_settings(tmp_path) -> None:
 
 def test_bad_settings_are_a_clear_error() -> None:
     vec = make_vec_env(coin_env, n_envs=2)
+    earlier = {"gsn_effect_model": False}  # GSN-MAX's earlier design: no effect models
     with pytest.raises(ValueError, match="needs policy_kwargs gsn_effect_model=True"):
-        CommDDPG("GSN-MAX", vec, gsn_max_search=8)
+        CommDDPG("GSN-MAX", vec, gsn_max_search=8, policy_kwargs=earlier)
     with pytest.raises(ValueError, match="gsn_max_search applies to GSN-MAX only"):
         CommDDPG("GSN", vec, gsn_max_search=8)
     with pytest.raises(ValueError, match="gsn_max_explorers applies to GSN-MAX only"):
         CommDDPG("TCG", vec, gsn_max_explorers=0.25)
     with pytest.raises(ValueError, match="gsn_max_search must be a whole number"):
-        CommDDPG("GSN-MAX", vec, gsn_max_search=0, policy_kwargs={"gsn_effect_model": True})
+        CommDDPG("GSN-MAX", vec, gsn_max_search=-1)
     with pytest.raises(ValueError, match="gsn_max_explorers must be a number in"):
         CommDDPG("GSN-MAX", vec, gsn_max_explorers=1.0, policy_kwargs={"gsn_effect_model": True})
     with pytest.raises(ValueError, match="leaves none to the agents"):
         CommDDPG("GSN-MAX", make_vec_env(coin_env, n_envs=1), gsn_max_explorers=0.5,
                  policy_kwargs={"gsn_effect_model": True})  # fmt: skip
     with pytest.raises(ValueError, match="explorer games feed GSN-MAX's effect model"):
-        CommDDPG("GSN-MAX", vec, gsn_max_explorers=0.5)
+        CommDDPG("GSN-MAX", vec, gsn_max_explorers=0.5, policy_kwargs=earlier)
     with pytest.raises(ValueError, match="gsn_effect_model=True applies to GSN-MAX only"):
         CommDDPG("GSN", vec, policy_kwargs={"gsn_effect_model": True})
     with pytest.raises(ValueError, match="choose one"):
@@ -327,3 +330,28 @@ def test_a_gain_within_the_effect_models_error_is_not_pulled() -> None:
         expected = (gain > floor) & (data.dones < 0.5)
         th.testing.assert_close(pulled, expected.float())
         assert pulled.sum() > 0 or floor == 1.0
+
+
+def test_a_new_gsn_max_is_the_effect_search_and_old_designs_keep_theirs(tmp_path) -> None:
+    """``CommDDPG("GSN-MAX", env)`` with nothing set is the packaged design's method (effect models,
+    16 candidates, a quarter of the games explorers, w = 0.8, no ε-random messages); the earlier
+    design (no effect models, or the head) keeps its own defaults; one game leaves no explorer
+    games, with a warning; what a model was trained with survives save and load."""
+    model = CommDDPG("GSN-MAX", make_vec_env(coin_env, n_envs=8, seed=0), seed=0)
+    assert model.policy.gsn.effect_model is not None
+    assert (model.gsn_max_search, model.gsn_max_explorers, model.explorer_envs) == (16, 0.25, 2)
+    assert (model.gsn_max_weight, model.gsn_max_explore_messages) == (0.8, False)
+    model.save(tmp_path / "search.zip")
+    loaded = CommDDPG.load(tmp_path / "search.zip", device="cpu")
+    assert (loaded.gsn_max_search, loaded.gsn_max_explorers, loaded.gsn_max_weight) == (16, 0.25, 0.8)
+    earlier = CommDDPG("GSN-MAX", make_vec_env(coin_env, n_envs=2), policy_kwargs={"gsn_effect_model": False})
+    assert earlier.policy.gsn.effect_model is None
+    assert (earlier.gsn_max_search, earlier.gsn_max_explorers, earlier.explorer_envs) == (None, 0.0, 0)
+    assert (earlier.gsn_max_weight, earlier.gsn_max_explore_messages) == (0.5, True)
+    head = CommDDPG("GSN-MAX", make_vec_env(coin_env, n_envs=2), policy_kwargs={"gsn_maximising_head": True})
+    assert head.policy.gsn.effect_model is None and head.gsn_max_weight == 0.5
+    with pytest.warns(UserWarning, match="one parallel game"):
+        single = CommDDPG("GSN-MAX", make_vec_env(coin_env, n_envs=1))
+    assert single.explorer_envs == 0 and single.gsn_max_search == 16
+    tcg = CommDDPG("TCG", make_vec_env(coin_env, n_envs=2))
+    assert (tcg.gsn_max_search, tcg.gsn_max_explorers, tcg.gsn_max_explore_messages) == (None, 0.0, True)

@@ -163,14 +163,19 @@ def test_the_option_survives_save_and_load_and_is_not_pickled_with_the_buffer(tm
     assert off.replay_buffer.message_relabeler is None
 
 
-@pytest.mark.parametrize("method", ["NONE", "RIAL", "TCG", "GSN-MAX"])
-def test_methods_whose_messages_are_not_m_of_o_refuse_the_option(method: str) -> None:
+@pytest.mark.parametrize(
+    ("method", "settings"),
+    [("NONE", {}), ("RIAL", {}), ("TCG", {}), ("GSN-MAX", {"gsn_max_explore_messages": True})],
+)
+def test_methods_whose_messages_are_not_m_of_o_refuse_the_option(method: str, settings: dict) -> None:
     with pytest.raises(ValueError, match=r"relabel_messages=True needs messages .* M\(o\)"):
-        collected(method, steps=0)
+        collected(method, steps=0, **settings)
 
 
 def test_gsn_max_without_explored_messages_accepts_it_and_a_bad_value_is_a_clear_error() -> None:
     model = collected("GSN-MAX", steps=0, gsn_max_explore_messages=False)
     assert model.replay_buffer.message_relabeler is not None
+    default = collected("GSN-MAX", steps=0)  # the effect search: only its explorer games explore
+    assert default.replay_buffer.message_relabeler is not None
     with pytest.raises(TypeError, match=r"relabel_messages must be True or False, got 'yes'"):
         collected(steps=0, relabel_messages="yes")

@@ -26,6 +26,7 @@ that keeps both agents of a game together, the message channel, and the communic
 
 from __future__ import annotations
 
+import warnings
 from collections import deque
 from typing import Any, ClassVar, TypeVar
 
@@ -72,6 +73,23 @@ seeds) and on mpe2 simple_reference (0.58 of the communication gap against 0.29)
 ``R(M(o_i), a_j)``, which the packaged configurations pin (README, "Defaults")."""
 
 
+GSN_MAX_EFFECT_SEARCH: dict[str, Any] = {
+    "gsn_max_weight": 0.8,
+    "gsn_max_search": 16,
+    "gsn_max_explorers": 0.25,
+    "gsn_max_explore_messages": False,
+}
+"""What a new ``CommDDPG("GSN-MAX", env)`` uses where an argument is left at None: its effect
+search (``policy_kwargs`` ``gsn_effect_model=True``, also the default for a new GSN-MAX model),
+the design of the packaged ``zoo_configs/gsn-max.yml``, which solves Blind Soccer and Guess My
+Number with one configuration (README, "Beyond the paper"). With one parallel game there is none to
+spare for explorer games: ``gsn_max_explorers`` then defaults to 0, with a warning."""
+
+GSN_MAX_EARLIER = {"gsn_max_weight": 0.5, "gsn_max_explore_messages": True}
+"""The same defaults for GSN-MAX's earlier designs (no effect model: the receiver critic's
+signal; ``gsn_maximising_head``), and for models saved before the effect search."""
+
+
 def _method_name(policy: str | type[BasePolicy], policy_kwargs: dict[str, Any] | None) -> str | None:
     """The communication method a constructor call asks for (an alias, a policy class, or
     ``policy_kwargs["method"]``), or None where it cannot be told (an unknown alias: the policy
@@ -100,15 +118,17 @@ class CommDDPG(HybridDDPG):
     :param actor_learning_rate: actor learning rate or schedule (reference code: 1e-5).
     :param gsn_learning_rate: GSN learning rate or schedule of the remaining progress, e.g.
         ``LinearSchedule(1e-3, 0, 1)`` (paper: a constant 1e-6); GSN-MAX: its grounding step.
-    :param gsn_max_weight: GSN-MAX only: the share ``w`` of the maximising signal (the receiver
-        critic's gradient) in the message extractor's gradient, each signal scaled to unit RMS (not
-        used by the head design, ``policy_kwargs`` ``gsn_maximising_head=True``, whose head is
-        trained at ``actor_learning_rate``).
+    :param gsn_max_weight: GSN-MAX only: the share ``w`` of the maximising signal. Effect search:
+        the pull's weight is ``w / (1 − w)`` times the effect models' R²; earlier designs: the share
+        of the receiver critic's gradient in the unit-RMS mix (not used by the head design,
+        ``policy_kwargs`` ``gsn_maximising_head=True``, whose head is trained at
+        ``actor_learning_rate``). None: 0.8 with the effect search, 0.5 otherwise.
     :param gsn_max_signals: GSN-MAX only: ``"both"``, or ``"grounding"`` / ``"maximising"`` alone
         (the method's ablations).
     :param gsn_max_explore_messages: GSN-MAX only: explore messages like actions (with probability
         ε a uniformly random message is sent), so that the receiver's critic sees messages other
-        than the current ones; False sends ``M(o)`` always, as GSN.
+        than the current ones; False sends ``M(o)`` always, as GSN. None: False with the effect
+        search (its explorer games explore instead), True otherwise.
     :param gsn_max_warmup: GSN-MAX only: the fraction of training over which the maximising share
         rises linearly from 0 to ``gsn_max_weight`` (0: the full share from the start), so that the
         receiver first learns to read grounded messages.
@@ -124,15 +144,16 @@ class CommDDPG(HybridDDPG):
         c > 0 gives the grounding its own Adam step and the maximising signal a plain gradient step
         of rate ``c`` × the GSN's learning rate, so that its step follows its size (Adam would turn a
         small signal into full-size steps).
-    :param gsn_max_search: GSN-MAX only, with ``policy_kwargs`` ``gsn_effect_model=True``: None (the
-        default) follows the effect model's gradient; a number K searches K uniformly random
-        candidate messages for one whose direct effect on the receiver's reward, by the effect
-        model, beats the sent message's, and pulls the message towards it (the *effect search*
-        design, :class:`~sb3_comm.comm_ddpg.methods.GSNMAX`).
+    :param gsn_max_search: GSN-MAX only, with ``policy_kwargs`` ``gsn_effect_model=True`` (the
+        default for a new GSN-MAX model): a number K searches K candidate messages for one whose
+        direct effect on the receiver's reward, by the effect models, beats the sent message's, and
+        pulls the message towards it (the *effect search*, :class:`~sb3_comm.comm_ddpg.methods.GSNMAX`);
+        0 follows the effect model's gradient instead (tried, not packaged). None: 16.
     :param gsn_max_explorers: GSN-MAX only: the fraction of the parallel games (at least one when
-        > 0) whose agents send uniformly random messages, so that the effect model sees what a
-        message does apart from what it says; their transitions train the effect model only, never
-        the agents or the grounding (0: no explorer games).
+        > 0) whose agents send uniformly random messages, so that the effect models see what a
+        message does apart from what it says; their transitions train the effect models only, never
+        the agents or the grounding (0: no explorer games). None: 0.25 with the effect models and
+        at least two parallel games, else 0.
     :param buffer_size: replay size in joint transitions.
     :param learning_starts: transitions collected with full exploration before learning.
     :param batch_size: joint transitions per update (agents and GSN).
@@ -215,15 +236,15 @@ class CommDDPG(HybridDDPG):
         learning_rate: float | Schedule = 1e-3,
         actor_learning_rate: float | Schedule = 1e-4,
         gsn_learning_rate: float | Schedule = 1e-3,
-        gsn_max_weight: float = 0.5,
+        gsn_max_weight: float | None = None,
         gsn_max_signals: str = "both",
-        gsn_max_explore_messages: bool = True,
+        gsn_max_explore_messages: bool | None = None,
         gsn_max_warmup: float = 0.0,
         gsn_max_centred: bool = False,
         gsn_max_gain: float | None = None,
         gsn_max_sgd: float | None = None,
         gsn_max_search: int | None = None,
-        gsn_max_explorers: float = 0.0,
+        gsn_max_explorers: float | None = None,
         buffer_size: int = 1_000_000,
         learning_starts: int = 1_000,
         batch_size: int = 64,
@@ -285,6 +306,16 @@ class CommDDPG(HybridDDPG):
         self.gsn_max_sgd = gsn_max_sgd
         self.gsn_max_search = gsn_max_search
         self.gsn_max_explorers = gsn_max_explorers
+        self._gsn_max_given = {
+            name
+            for name, value in (
+                ("gsn_max_weight", gsn_max_weight),
+                ("gsn_max_explore_messages", gsn_max_explore_messages),
+                ("gsn_max_search", gsn_max_search),
+                ("gsn_max_explorers", gsn_max_explorers),
+            )
+            if value is not None
+        }
         self.tcg_gain = tcg_gain
         self.relabel_messages = relabel_messages
         # SB3's load builds the model with _init_setup_model=False, then sets the saved attributes:
@@ -300,6 +331,11 @@ class CommDDPG(HybridDDPG):
             # a new GSN model: the reward model sees the teammate unless told otherwise (a saved
             # model keeps the policy_kwargs it was saved with, which SB3's load sets after this)
             policy_kwargs = {"gsn_reward_sees_teammate": GSN_REWARD_SEES_TEAMMATE, **(policy_kwargs or {})}
+        new_gsn_max = _init_setup_model and method == "GSN-MAX"
+        if new_gsn_max and (policy_kwargs is None or isinstance(policy_kwargs, dict)):
+            # a new GSN-MAX model: the effect search, unless another design is asked for
+            head = bool((policy_kwargs or {}).get("gsn_maximising_head", False))
+            policy_kwargs = {"gsn_effect_model": not head, **(policy_kwargs or {})}
         self.gsn_callback: GSNTrainingCallback | None = None
         self._in_learn = False
         self._drawn_batches: deque[JointReplayBufferSamples] | None = None
@@ -437,7 +473,36 @@ class CommDDPG(HybridDDPG):
             explorable[self.comm_layout.action_message_slice] = False
         return explorable
 
+    def _resolve_gsn_max_defaults(self) -> None:
+        """Give the GSN-MAX settings left at None their values: the effect search's
+        (:data:`GSN_MAX_EFFECT_SEARCH`) where the policy has effect models, the earlier designs'
+        (:data:`GSN_MAX_EARLIER`; no search, no explorer games) otherwise, as for every other method
+        and for models saved before the effect search."""
+        kwargs = self.policy_kwargs if isinstance(self.policy_kwargs, dict) else {}
+        method = _method_name(self.policy_class, kwargs)
+        effect = method == "GSN-MAX" and bool(kwargs.get("gsn_effect_model", False))
+        defaults = (
+            GSN_MAX_EFFECT_SEARCH
+            if effect
+            else {**GSN_MAX_EARLIER, "gsn_max_search": None, "gsn_max_explorers": 0.0}
+        )
+        for name, value in defaults.items():
+            if getattr(self, name, None) is None:
+                setattr(self, name, value)
+        if effect and self.gsn_max_explorers and self.n_envs < 2:
+            if "gsn_max_explorers" in self._gsn_max_given:
+                return  # refused with the reason in _environment_policy_kwargs
+            warnings.warn(
+                "GSN-MAX trains on one parallel game: none is left to spare for the explorer games that "
+                "show its effect models what a message does apart from what it says (gsn_max_explorers), "
+                "so they learn from the agents' own games. Use n_envs >= 2 (the packaged configuration "
+                "uses 16, 4 of them explorers), or set gsn_max_explorers=0 to silence this.",
+                stacklevel=3,
+            )
+            self.gsn_max_explorers = 0.0
+
     def _setup_model(self) -> None:
+        self._resolve_gsn_max_defaults()
         super()._setup_model()
         if not isinstance(self.policy.comm_method, GSNMAX):
             if self.gsn_max_signals != "both":
@@ -486,7 +551,7 @@ class CommDDPG(HybridDDPG):
             )
         search = getattr(self, "gsn_max_search", None)
         effect = self.gsn is not None and self.gsn.effect_model is not None
-        if search is not None and not effect:
+        if search and not effect:
             raise ValueError(
                 f"gsn_max_search={search!r} searches messages by GSN-MAX's effect model: it needs "
                 "policy_kwargs gsn_effect_model=True"
@@ -576,7 +641,7 @@ class CommDDPG(HybridDDPG):
                 gain=getattr(self, "gsn_max_gain", None),
                 sgd=getattr(self, "gsn_max_sgd", None),
                 head_learning_rate=self.actor_learning_rate,
-                search=getattr(self, "gsn_max_search", None),
+                search=getattr(self, "gsn_max_search", None) or None,  # 0: the effect gradient
             )
             callback = CallbackList([self.gsn_callback, callback])
             callback.init_callback(self)
@@ -696,7 +761,15 @@ class CommDDPG(HybridDDPG):
 
     # ---------------------------------------------------------------------- save / load --
     def _excluded_save_params(self) -> list[str]:
-        excluded = ["gsn", "gsn_callback", "comm_layout", "_agent_returns", "_in_learn", "_drawn_batches"]
+        excluded = [
+            "gsn",
+            "gsn_callback",
+            "comm_layout",
+            "_agent_returns",
+            "_in_learn",
+            "_drawn_batches",
+            "_gsn_max_given",
+        ]
         return [*super()._excluded_save_params(), *excluded]
 
     def _get_torch_save_params(self) -> tuple[list[str], list[str]]:
