@@ -11,8 +11,16 @@ A method answers three questions, and nothing else in the package asks which met
 * **which extra networks exist** (:meth:`CommMethod.make_networks`): the GSN for ``GSN`` and
   ``GSN-MAX``.
 
-Beyond the paper, ``GSN-MAX`` (:class:`GSNMAX`) trains the GSN's message extractor with both
-signals: GSN's grounding regression and TCG's receiver-critic gradient.
+Beyond the paper, ``GSN-MAX`` (:class:`GSNMAX`) trains the GSN's message extractor ``M`` with
+GSN's grounding regression and a pull towards messages with a better *effect* on the teammate's
+reward (the effect search, the default)::
+
+    E_1, E_2(s_j, s_i, m_i, a_j) ≈ r_j                 on explorer games (random messages)
+    m* = argmax_c E_1(s'_j, s'_i, c, a'_j)             K candidates c, a'_j = μ_j(o'_j ⊕ m_i)
+    pulled ⇔ E_2 gain of m* over m_i > max(√(1 − R²_E), 0.1, |gain_1 − gain_2|)
+    L = L_g(M, R) + L_E(E_1, E_2) + λ · ½ mean_pulled ‖M(o_i) − atanh(m*)‖²,  λ = w/(1 − w) · R²_E
+
+The earlier designs (options) mix TCG's receiver-critic gradient into the grounding instead.
 """
 
 from __future__ import annotations
