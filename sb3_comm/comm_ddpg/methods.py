@@ -15,8 +15,8 @@ Beyond the paper, ``GSN-MAX`` (:class:`GSNMAX`) trains the GSN's message extract
 GSN's grounding regression and a pull towards messages with a better *effect* on the teammate's
 reward (the effect search, the default)::
 
-    E_1, E_2(s_j, s_i, m_i, a_j) ≈ r_j                 on explorer games (random messages)
-    m* = argmax_c E_1(s'_j, s'_i, c, a'_j)             K candidates c, a'_j = μ_j(o'_j ⊕ m_i)
+    E_1, E_2(s_j, s_i, m_j, a_j) ≈ r_j        m_j: the message j heard; fitted on explorer games
+    m* = argmax_c E_1(s'_j, s'_i, c, a'_j)    K candidates c for i's message m_i, a'_j = μ_j(o'_j ⊕ m_i)
     pulled ⇔ E_2 gain of m* over m_i > max(√(1 − R²_E), 0.1, |gain_1 − gain_2|)
     L = L_g(M, R) + L_E(E_1, E_2) + λ · ½ mean_pulled ‖M(o_i) − atanh(m*)‖²,  λ = w/(1 − w) · R²_E
 
