@@ -494,6 +494,21 @@ class GSNMAX(GSN):
     and the two models' disagreement about it."""
 
     @staticmethod
+    def _effect_of(
+        gsn: GroundedSemanticNetwork, which: int, situation: th.Tensor, heard: th.Tensor, response: th.Tensor
+    ) -> th.Tensor:
+        """Effect model ``which`` for each of ``C`` heard messages in the same situations:
+        ``heard`` ``(C, B, agents, n)``, ``situation`` ``(B, agents, ·)`` and ``response``
+        ``(B, agents, ·)`` held; returns ``(C, B, agents)``."""
+        count, batch, agents, _ = heard.shape
+        rows = count * batch
+        situations = situation.expand(count, *situation.shape).reshape(rows, agents, -1)
+        responses = response.expand(count, *response.shape).reshape(rows, agents, -1)
+        return gsn.effect(situations, heard.reshape(rows, agents, -1), responses, which).reshape(
+            count, batch, agents
+        )
+
+    @staticmethod
     def search_targets(
         policy: TeamPolicy, sent: th.Tensor, next_obs: th.Tensor, dones: th.Tensor, candidates: int
     ) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
@@ -538,25 +553,19 @@ class GSNMAX(GSN):
             if local:
                 noise = th.randn((local, batch, agents, size), dtype=sent.dtype, device=sent.device)
                 tried[candidates - local :] = (received + GSNMAX.SEARCH_LOCAL_STD * noise).clamp(-1.0, 1.0)
-            # the sent message last: the candidates and it, judged by both effect models
-            heard = th.cat([tried, received[None]]).reshape((candidates + 1) * batch, agents, size)
-            situations = situation.expand(candidates + 1, *situation.shape).reshape(
-                heard.shape[0], agents, -1
-            )
-            responses = response.expand(candidates + 1, *response.shape).reshape(heard.shape[0], agents, -1)
-            picker, judge = (
-                gsn.effect(situations, heard, responses, k).reshape(candidates + 1, batch, agents)
-                for k in (0, 1)
-            )
-            index = picker[:candidates].argmax(dim=0)  # E_1 picks a candidate, E_2 judges it
+            # the sent message last: E_1 judges the candidates and it, and picks the best candidate
+            picker = GSNMAX._effect_of(gsn, 0, situation, th.cat([tried, received[None]]), response)
+            index = picker[:candidates].argmax(dim=0)
             claimed = th.gather(picker[:candidates], 0, index[None])[0] - picker[candidates]
-            gain = th.gather(judge[:candidates], 0, index[None])[0] - judge[candidates]
+            best_messages = th.gather(tried, 0, index[None, ..., None].expand(1, batch, agents, size))[0]
+            # E_2 judges the picked candidate against the sent message (only these two rows)
+            judge = GSNMAX._effect_of(gsn, 1, situation, th.stack([best_messages, received]), response)
+            gain = judge[0] - judge[1]
             # confirmed: the judge's gain is above the models' own error and their disagreement
             error = (1.0 - gsn.effect_r2).clamp(min=0.0).sqrt()  # RMS residual, in reward std
             floor = th.clamp(error, min=GSNMAX.SEARCH_MARGIN)
             confirmed = gain > th.maximum((claimed - gain).abs(), floor)
             pulled = confirmed & (dones < 0.5)
-            best_messages = th.gather(tried, 0, index[None, ..., None].expand(1, batch, agents, size))[0]
             targets = th.where(pulled[..., None], best_messages, received)
         return targets.flip(1), pulled.flip(1).to(sent.dtype), gain.flip(1)
 
