@@ -497,7 +497,7 @@ class CommDDPG(HybridDDPG):
                 "show its effect models what a message does apart from what it says (gsn_max_explorers), "
                 "so they learn from the agents' own games. Use n_envs >= 2 (the packaged configuration "
                 "uses 16, 4 of them explorers), or set gsn_max_explorers=0 to silence this.",
-                stacklevel=3,
+                stacklevel=5,
             )
             self.gsn_max_explorers = 0.0
 
