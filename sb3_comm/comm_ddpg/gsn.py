@@ -230,8 +230,11 @@ class GroundedSemanticNetwork(nn.Module):
         :param actions: ``(B, 2, action_dim)`` actions.
         :param rewards: ``(B, 2)`` rewards.
         """
+        return self.effect_regression(obs, actions, self.effect_target(rewards))
+
+    def effect_regression(self, obs: th.Tensor, actions: th.Tensor, target: th.Tensor) -> th.Tensor:
+        """:meth:`effect_loss` against a target already made by :meth:`effect_target` ``(B, 2)``."""
         start = self.effect_obs_dim
-        target = self.effect_target(rewards)
         situation, heard = obs[..., :start], obs[..., start:]
         return sum(F.mse_loss(self.effect(situation, heard, actions, k), target) for k in range(2)) / 2.0
 
@@ -603,11 +606,9 @@ class GSNTrainingCallback(BaseCallback):
         grounded = messages if self.signals != "maximising" else messages.detach()  # R still learns
         loss = gsn.loss(obs, data.actions, data.rewards, messages=grounded)
         effect_data = data if explorers is None else explorers
-        effect_loss = gsn.effect_loss(effect_data.observations, effect_data.actions, effect_data.rewards)
+        target = gsn.effect_target(effect_data.rewards)
+        effect_loss = gsn.effect_regression(effect_data.observations, effect_data.actions, target)
         with th.no_grad():
-            was_training, gsn.training = gsn.training, False  # the moments were updated by the loss
-            target = gsn.effect_target(effect_data.rewards)
-            gsn.training = was_training
             r2 = (1.0 - effect_loss / target.var(unbiased=False).clamp_min(1e-12)).clamp(0.0, 1.0)
             gsn.effect_r2.lerp_(r2, self.EFFECT_R2_RATE)
         total = loss + effect_loss

@@ -59,12 +59,15 @@ class CommPolicy(HybridPolicy):
         follows the receiver critic's gradient and ``M`` the regression alone
         (:class:`~sb3_comm.comm_ddpg.methods.GSNMAX`, "head design"); off: one extractor ``M``
         trained by the mix of both signals.
-    :param gsn_effect_model: GSN-MAX only: its maximising signal comes from a centralised one-step
-        effect model ``E`` of the receiver's reward (the situation without messages, the message
-        heard, the receiver's action), through the receiver's current actor
-        (:meth:`~sb3_comm.comm_ddpg.methods.GSNMAX.effect_gradients`); off: from the receiver's critic.
-    :param gsn_effect_paths: which paths of the message's effect that signal follows: ``"total"``
-        (both), ``"action"`` (only through the receiver's action) or ``"direct"`` (only ``∂E/∂m``).
+    :param gsn_effect_model: GSN-MAX only: its maximising signal comes from two centralised
+        one-step effect models ``E_1, E_2`` of the receiver's reward (the situation without
+        messages, the message heard, the receiver's action): the effect search
+        (:meth:`~sb3_comm.comm_ddpg.methods.GSNMAX.search_targets`, the default for a new GSN-MAX
+        model), or with ``gsn_max_search=0`` the model's gradient
+        (:meth:`~sb3_comm.comm_ddpg.methods.GSNMAX.effect_gradients`); off: the receiver's critic.
+    :param gsn_effect_paths: with ``gsn_max_search=0``, which paths of the message's effect the
+        gradient follows: ``"total"`` (both), ``"action"`` (only through the receiver's action) or
+        ``"direct"`` (only ``∂E/∂m``).
     :param optimizer_class: optimizer of actor, critic and GSN.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
