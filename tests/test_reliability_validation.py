@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import zipfile
 from pathlib import Path
 
@@ -85,7 +86,11 @@ BAD_ARGUMENTS = [
 ]
 
 
-@pytest.mark.parametrize(("kwargs", "error", "match"), BAD_ARGUMENTS, ids=lambda v: str(v)[:40])
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    BAD_ARGUMENTS,
+    ids=lambda v: re.sub(r" at 0x[0-9a-fA-F]+", "", str(v))[:40],  # the same ids in every xdist worker
+)
 def test_constructor_refuses_bad_values(kwargs, error, match) -> None:
     with pytest.raises(error, match=match):
         CommDDPG("GSN", _coin_vec(), **{**TINY, **kwargs})
