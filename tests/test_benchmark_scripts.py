@@ -138,3 +138,19 @@ def test_protocol_probe_tells_an_informative_protocol_from_noise_and_a_recoding_
     recoded = telling @ rng.normal(size=(4, 4)) + 0.3
     assert module.drift(telling, recoded)["r2_linear_map"] == pytest.approx(1.0)
     assert module.drift(telling, rng.normal(size=(2000, 4)))["r2_linear_map"] < 0.05
+
+
+def test_final_level_divides_by_the_reference_on_the_same_games_and_narrows_with_more_games():
+    """benchmarks/final_level.py: the fraction is the team's mean over every game divided by the
+    reference's mean over the same game seeds, and its interval shrinks as 1/sqrt(games)."""
+    module = _load(BENCHMARKS / "final_level.py")
+    rng = np.random.default_rng(0)
+    references = [{"oracle": 0.6, "visible_oracle": 0.55}, {"oracle": 0.64, "visible_oracle": 0.57}]
+    few = [rng.normal(0.56, 0.27, 100) for _ in references]
+    many = [rng.normal(0.56, 0.27, 10_000) for _ in references]
+    got = module.level(few, references, "oracle")
+    assert got["reference_return"] == pytest.approx(0.62)
+    assert got["fraction"] == pytest.approx(np.concatenate(few).mean() / 0.62)
+    assert module.level(few, references, "visible_oracle")["fraction"] > got["fraction"]
+    narrow = module.level(many, references, "oracle")["ci95"]
+    assert narrow == pytest.approx(got["ci95"] / 10.0, rel=0.15)
