@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import pathlib
+import re
 import shlex
 import sys
 from typing import Any
@@ -19,6 +20,7 @@ __all__ = [
     "RESULTS_DIR",
     "add_threads_option",
     "apply_threads_option",
+    "checkpoints",
     "command_line",
     "finished_run",
     "machine_info",
@@ -26,6 +28,16 @@ __all__ = [
 ]
 
 RESULTS_DIR = pathlib.Path(__file__).resolve().parent / "results"
+
+
+def checkpoints(run_dir: str | pathlib.Path, min_steps: int = 0) -> list[tuple[int, pathlib.Path]]:
+    """The checkpoints ``checkpoints/model_<steps>_steps.zip`` of a run folder (``benchmarks/solve.py
+    --save-freq``) from ``min_steps`` on, as ``(steps, path)`` sorted by step (empty if none)."""
+    return sorted(
+        (int(m.group(1)), path)
+        for path in pathlib.Path(run_dir, "checkpoints").glob("model_*_steps.zip")
+        if (m := re.fullmatch(r"model_(\d+)_steps\.zip", path.name)) and int(m.group(1)) >= min_steps
+    )
 
 
 def add_threads_option(parser: argparse.ArgumentParser) -> None:

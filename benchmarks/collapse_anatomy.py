@@ -24,7 +24,6 @@ With ``--swap STEPS ...`` (checkpoints around a collapse) it also asks which par
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -32,7 +31,7 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import write_results
+from _common import checkpoints, write_results
 
 ENV_ID = "BlindSoccer-v0"
 KINDS = ("dash", "turn", "kick")
@@ -193,11 +192,7 @@ def main() -> None:
     from sb3_comm.analysis.references import reference_returns
 
     oracle = reference_returns(ENV_ID, n_episodes=args.games, seed=args.seed)["oracle"]  # type: ignore[index]
-    found = sorted(
-        (int(m.group(1)), path)
-        for path in Path(args.run_dir, "checkpoints").glob("model_*_steps.zip")
-        if (m := re.fullmatch(r"model_(\d+)_steps\.zip", path.name)) and int(m.group(1)) >= args.min_steps
-    )
+    found = checkpoints(args.run_dir, args.min_steps)
     if not found:
         raise SystemExit(f"no checkpoints in {args.run_dir}/checkpoints")
     points = []

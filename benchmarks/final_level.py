@@ -8,7 +8,7 @@ above or below it. This script plays each run's final model (``model.zip`` of a 
 ``--games`` games of each of ``--game-seeds`` (one episode per game, deterministic, as the final
 evaluation), and divides by the oracle and by the visible oracle on the very same games
 (:func:`sb3_comm.analysis.references.reference_returns`), with a 95 % interval from the spread of
-the paired differences.
+the team's returns over the games (the reference's mean taken as exact).
 
     python benchmarks/final_level.py /work/runs/b128eps/BlindSoccer-v0_GSN_seed*/ \\
         --name final_level_blind_soccer_gsn_batch128_eps0.01

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import write_results
+from _common import checkpoints, write_results
 
 ENV_ID = "BlindSoccer-v0"
 
@@ -120,16 +120,6 @@ def drift(earlier: np.ndarray, later: np.ndarray) -> dict[str, float]:
     }
 
 
-def checkpoints(run: Path) -> list[tuple[int, Path]]:
-    """The checkpoints ``model_<steps>_steps.zip`` of a run folder, by step."""
-    found = sorted(
-        (int(path.stem.split("_")[1]), path) for path in (run / "checkpoints").glob("model_*_steps.zip")
-    )
-    if not found:
-        raise SystemExit(f"{run}: no checkpoints/model_<steps>_steps.zip (train with --save-freq)")
-    return found
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -163,7 +153,10 @@ def main() -> None:
         label, _, folder = item.partition("=")
         if not folder:
             raise SystemExit(f"--runs takes label=run_folder; got {item!r}")
-        models = {step: CommDDPG.load(path, device="cpu") for step, path in checkpoints(Path(folder))}
+        found = checkpoints(folder)
+        if not found:
+            raise SystemExit(f"{folder}: no checkpoints/model_<steps>_steps.zip (train with --save-freq)")
+        models = {step: CommDDPG.load(path, device="cpu") for step, path in found}
         last = max(models)
         probes, recorded = {}, {}
         for step, model in models.items():
@@ -184,12 +177,11 @@ def main() -> None:
         observations = recorded[last]["observations"]
         messages = {step: sighted_messages(model, observations) for step, model in models.items()}
         steps = sorted(messages)
-        drifts = {f"{a}-{b}": drift(messages[a], messages[b]) for a, b in itertools.pairwise(steps)}
-        for key, d in drifts.items():
-            a, b = (int(v) // 1000 for v in key.split("-"))
-            drift_rows.append(
-                f"| {label} | {a}k → {b}k | {d['mean_abs_change']:.3f} | {d['r2_linear_map']:.2f} |"
-            )
+        drifts = {}
+        for a, b in itertools.pairwise(steps):
+            d = drifts[f"{a}-{b}"] = drift(messages[a], messages[b])
+            span = f"{a // 1000}k → {b // 1000}k"
+            drift_rows.append(f"| {label} | {span} | {d['mean_abs_change']:.3f} | {d['r2_linear_map']:.2f} |")
         results[label] = {"run": folder, "probe": {str(k): v for k, v in probes.items()}, "drift": drifts}
     notes = (
         f"\n\n{args.n_games} games × {args.steps} steps of each checkpoint's deterministic team (games of "

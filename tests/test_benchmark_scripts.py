@@ -154,3 +154,16 @@ def test_final_level_divides_by_the_reference_on_the_same_games_and_narrows_with
     assert module.level(few, references, "visible_oracle")["fraction"] > got["fraction"]
     narrow = module.level(many, references, "oracle")["ci95"]
     assert narrow == pytest.approx(got["ci95"] / 10.0, rel=0.15)
+
+
+def test_checkpoints_lists_a_run_folders_checkpoints_by_step_and_skips_other_files(tmp_path):
+    """benchmarks/_common.checkpoints (collapse_anatomy.py, protocol_probe.py): the checkpoints of a
+    run folder sorted by their step, numerically, from ``min_steps`` on; other files are left out."""
+    module = _load(BENCHMARKS / "_common.py")
+    folder = tmp_path / "checkpoints"
+    folder.mkdir()
+    for name in ("model_100000_steps.zip", "model_25000_steps.zip", "model_x_steps.zip", "notes.txt"):
+        (folder / name).write_text("")
+    assert [step for step, _ in module.checkpoints(tmp_path)] == [25000, 100000]
+    assert module.checkpoints(tmp_path, min_steps=50000) == [(100000, folder / "model_100000_steps.zip")]
+    assert module.checkpoints(tmp_path / "missing") == []
