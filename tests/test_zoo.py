@@ -9,6 +9,7 @@ from pathlib import Path
 
 import optuna
 import pytest
+import yaml
 
 from sb3_comm import CommDDPG
 from sb3_comm.config import CONFIG_DIR
@@ -156,3 +157,19 @@ def test_zoo_runs_get_the_dense_tensorboard_points(tmp_path: Path) -> None:
     steps = [event.step for event in events.Scalars("rollout/exploration_rate")]
     assert steps == [100, 200, 300, 400]
     assert [event.step for event in events.Scalars("eval/mean_reward")] == [100, 200, 300, 400]
+
+
+@pytest.mark.parametrize("task", ["BlindSoccer-v0", "GuessMyNumber-v0"])
+def test_paper_methods_share_every_agent_setting_on_a_task(task: str) -> None:
+    """NONE, RIAL, TCG and GSN differ only in the channel: a setting changed for one method's
+    entry and not the others' would make the paper's comparison unfair."""
+    entries = {
+        m: yaml.safe_load((CONFIG_DIR / f"{m}.yml").read_text())[task] for m in ("none", "rial", "tcg", "gsn")
+    }
+    gsn_only = {"gsn_learning_rate"}
+    for method, entry in entries.items():
+        agent = {k: v for k, v in entry.items() if k != "policy" and k not in gsn_only}
+        agent["policy_kwargs"] = {k: v for k, v in agent["policy_kwargs"].items() if not k.startswith("gsn_")}
+        reference = {k: v for k, v in entries["none"].items() if k != "policy"}
+        assert agent == reference, f"{method}.yml {task} differs from none.yml"
+    assert entries["gsn"]["policy"] == "GSN" and entries["none"]["policy"] == "NONE"
