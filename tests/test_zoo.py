@@ -9,10 +9,9 @@ from pathlib import Path
 
 import optuna
 import pytest
-import yaml
 
 from sb3_comm import CommDDPG
-from sb3_comm.config import CONFIG_DIR
+from sb3_comm.config import CONFIG_DIR, config_path, read_entry
 from sb3_comm.zoo import ZOO_ALGOS, convert_commddpg_params, main, prepare_args, sample_commddpg_params
 
 TINY = ["-params", "n_envs:2", "learning_starts:64", "buffer_size:2000", "batch_size:32"]
@@ -163,13 +162,11 @@ def test_zoo_runs_get_the_dense_tensorboard_points(tmp_path: Path) -> None:
 def test_paper_methods_share_every_agent_setting_on_a_task(task: str) -> None:
     """NONE, RIAL, TCG and GSN differ only in the channel: a setting changed for one method's
     entry and not the others' would make the paper's comparison unfair."""
-    entries = {
-        m: yaml.safe_load((CONFIG_DIR / f"{m}.yml").read_text())[task] for m in ("none", "rial", "tcg", "gsn")
-    }
+    entries = {m: read_entry(config_path(m), task) for m in ("NONE", "RIAL", "TCG", "GSN")}
+    reference = {k: v for k, v in entries["NONE"].items() if k != "policy"}
     gsn_only = {"gsn_learning_rate"}
     for method, entry in entries.items():
         agent = {k: v for k, v in entry.items() if k != "policy" and k not in gsn_only}
         agent["policy_kwargs"] = {k: v for k, v in agent["policy_kwargs"].items() if not k.startswith("gsn_")}
-        reference = {k: v for k, v in entries["none"].items() if k != "policy"}
-        assert agent == reference, f"{method}.yml {task} differs from none.yml"
-    assert entries["gsn"]["policy"] == "GSN" and entries["none"]["policy"] == "NONE"
+        assert agent == reference, f"{config_path(method).name} {task} differs from none.yml"
+    assert entries["GSN"]["policy"] == "GSN" and entries["NONE"]["policy"] == "NONE"
