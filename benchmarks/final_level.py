@@ -81,11 +81,11 @@ def main() -> None:
         path = Path(folder) / "model.zip"
         if not path.exists():
             raise SystemExit(f"{folder}: no model.zip (a run that has not finished?)")
-        model = CommDDPG.load(path, device="cpu")
-        returns = [team_returns(model, args.games, seed) for seed in args.game_seeds]
         label = f"{Path(folder).resolve().parent.name}/{Path(folder).name}"  # solves reuse run names
         if label in results:
             raise SystemExit(f"{folder}: run {label} given twice")
+        model = CommDDPG.load(path, device="cpu")
+        returns = [team_returns(model, args.games, seed) for seed in args.game_seeds]
         results[label] = {
             "mean_return": float(np.concatenate(returns).mean()),
             "oracle": level(returns, references, "oracle"),
