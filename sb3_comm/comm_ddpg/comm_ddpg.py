@@ -161,7 +161,7 @@ class CommDDPG(HybridDDPG):
     :param gamma: discount factor. The default is 0.95 (until session 19 it was 0.99, the default
         of SB3 and of :class:`~sb3_comm.HybridDDPG`): with it the defaults learn mpe2
         ``simple_reference`` and Blind Soccer further, in the mean and on the worst seed (README,
-        "The defaults on the packaged tasks"). The packaged configurations pin their own.
+        "A discount of 0.95 as the default"). The packaged configurations pin their own.
     :param train_freq: update the model every ``train_freq`` steps.
     :param gradient_steps: updates after each rollout (-1: as many as steps collected).
     :param exploration: ``"epsilon"`` (ICLR 2016: with probability ε an agent takes uniformly
