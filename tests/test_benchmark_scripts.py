@@ -167,3 +167,39 @@ def test_checkpoints_lists_a_run_folders_checkpoints_by_step_and_skips_other_fil
     assert [step for step, _ in module.checkpoints(tmp_path)] == [25000, 100000]
     assert module.checkpoints(tmp_path, min_steps=50000) == [(100000, folder / "model_100000_steps.zip")]
     assert module.checkpoints(tmp_path / "missing") == []
+
+
+def test_simple_reference_table_reads_every_seed_and_rejects_other_files(tmp_path, monkeypatch):
+    """The combined table of simple_reference result files: one row per method with every seed,
+    the setting in words; a missing file or a file of another benchmark is a clear error."""
+    import json
+
+    module = _load(BENCHMARKS / "simple_reference_table.py")
+    monkeypatch.setattr(module, "RESULTS_DIR", tmp_path)
+    estimate = {"point": 0.5, "low": 0.4, "high": 0.6}
+    result = {
+        "args": {"params": ["gamma=0.95"], "perfect_channel": True, "timesteps": 300000},
+        "machine": {"cpu_model": "cpu", "date": "2026-12-05T00:00:00"},
+        "methods": {
+            "GSN": {
+                "seeds": [0, 1],
+                "gap_closed": [0.25, 0.75],
+                "gap_closed_estimates": {"mean": estimate},
+                "worst_gap_closed": 0.25,
+            }
+        },
+        "runs": [{"method": "GSN", "train_seconds": 10.0}, {"method": "GSN", "train_seconds": 12.0}],
+    }
+    (tmp_path / "a.json").write_text(json.dumps(result))
+    (tmp_path / "other.json").write_text(json.dumps({"name": "other"}))
+    (row,) = module.rows_of("a")
+    assert (
+        row["seeds"] == [0, 1] and row["gap_closed"] == [0.25, 0.75] and row["train_seconds"] == [10.0, 12.0]
+    )
+    assert row["setting"] == "`gamma=0.95`, perfect channel, 300,000 steps"
+    table = module.markdown([row])
+    assert "0: 0.25, 1: 0.75" in table and "— (< 5 seeds)" in table
+    with pytest.raises(FileNotFoundError, match="no result file"):
+        module.rows_of("missing")
+    with pytest.raises(ValueError, match=r"not a result of benchmarks/simple_reference\.py"):
+        module.rows_of("other")
