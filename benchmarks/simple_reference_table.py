@@ -17,7 +17,6 @@ writes ``benchmarks/results/<name>.{json,md}``.
 from __future__ import annotations
 
 import argparse
-import json
 import shlex
 import sys
 from pathlib import Path
@@ -25,6 +24,8 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import RESULTS_DIR, write_results
+
+from sb3_comm.results import read_json
 
 SCRIPT = "benchmarks/simple_reference_table.py"
 
@@ -48,18 +49,19 @@ def rows_of(name: str) -> list[dict[str, Any]]:
     path = RESULTS_DIR / f"{name}.json"
     if not path.is_file():
         raise FileNotFoundError(f"no result file {path} (give a name in {RESULTS_DIR}, without .json)")
-    data = json.loads(path.read_text())
+    data = read_json(path)
     if "methods" not in data or "args" not in data or "runs" not in data:
         raise ValueError(
             f"{path} is not a result of benchmarks/simple_reference.py (no 'methods', 'args', 'runs')"
         )
+    described = setting(data["args"])
     rows = []
     for method, m in data["methods"].items():
         seconds = [r["train_seconds"] for r in data["runs"] if r["method"] == method]
         rows.append(
             {
                 "file": name,
-                "setting": setting(data["args"]),
+                "setting": described,
                 "method": method,
                 "seeds": m["seeds"],
                 "gap_closed": m["gap_closed"],
