@@ -177,17 +177,25 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
     per_method: dict[str, Any] = {}
     rows = [
         "| method | seed | final return | gap closed | zeroed messages | shuffled messages "
-        "| train time (s) |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        "| train time (s) | periodic evaluations: peak (step), last |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
+    curve_rows = ["| method | step | mean | worst seed |", "|---|---:|---:|---:|"]
     for method in methods:
         mine = sorted((r for r in runs if r["method"] == method), key=lambda r: r["seed"])
         fractions = [fraction(r["final"]["none"]) for r in mine]
-        for r, f in zip(mine, fractions, strict=True):
+        curves = [[(step, fraction(value)) for step, value in r["curve"]] for r in mine]
+        for r, f, curve in zip(mine, fractions, curves, strict=True):
+            peak_step, peak = max(curve, key=lambda point: point[1])
             rows.append(
                 f"| {method} | {r['seed']} | {r['final']['none']:.3f} | {f:.2f} | {r['final']['zero']:.3f} "
-                f"| {r['final']['shuffle']:.3f} | {r['train_seconds']:.0f} |"
+                f"| {r['final']['shuffle']:.3f} | {r['train_seconds']:.0f} "
+                f"| {peak:.2f} ({peak_step:,}), {curve[-1][1]:.2f} |"
             )
+        if len({tuple(step for step, _ in curve) for curve in curves}) == 1:  # the same steps
+            for i, (step, _) in enumerate(curves[0]):
+                points = [curve[i][1] for curve in curves]
+                curve_rows.append(f"| {method} | {step:,} | {np.mean(points):.2f} | {min(points):.2f} |")
         per_method[method] = {
             "seeds": [r["seed"] for r in mine],
             "gap_closed": fractions,
@@ -241,6 +249,11 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
         f"{args.workers} runs at a time. Goal: a method whose gap closed is ≥ 0.7. "
         f"Learning curves: [{figure.name}]({figure.name}) (mean, 95 % t-interval and the worst seed "
         "per method)."
+    )
+    ref_text += (
+        "\n\nPeriodic evaluations (100 other games, seed "
+        f"{CURVE_SEED}, read against the final games' references), as gap closed, the mean of the seeds "
+        "and the worst seed at each step:\n\n" + "\n".join(curve_rows)
     )
     if args.note:
         ref_text += f"\n\n{args.note}"
