@@ -4,7 +4,9 @@ Every model gets the same environment (a batched VecEnv of ``--n-envs`` games), 
 layers, batch size and update ratio (one gradient step per VecEnv step). TD3 is configured as
 DDPG (one critic, no policy delay, no target smoothing) so that it does the same number of
 network passes as CommDDPG's NONE; it sees the two agents as one flat agent. The ratio
-``TD3 steps/s ÷ method steps/s`` is the overhead of the method, measured in the same run.
+``TD3 steps/s ÷ method steps/s`` is the overhead of the method, measured in the same run. Every
+model writes its logged training points as often as in a real run (CommDDPG: the default interval
+of the packaged configuration's budget; TD3: SB3's default).
 
     python benchmarks/train_throughput.py --env BlindSoccer-v0 --n-envs 8 --steps 3000
 
@@ -126,6 +128,18 @@ def logging_overhead(args: argparse.Namespace, common: dict) -> None:
     )
 
 
+def log_interval(method: str, args: argparse.Namespace) -> int:
+    """Environment steps between CommDDPG's logged training points in the timed runs: ``--log-interval``,
+    or the default of a run of the packaged configuration (``n_timesteps`` / 200 on the grid of
+    ``--n-envs``)."""
+    from sb3_comm.config import RunConfig
+    from sb3_comm.hybrid_ddpg.hybrid_ddpg import default_log_interval
+
+    if args.log_interval is not None:
+        return args.log_interval
+    return default_log_interval(RunConfig.load(method, args.env).n_timesteps, args.n_envs)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -141,7 +155,10 @@ def main() -> None:
     parser.add_argument("--name", default=None, help="result file stem")
     parser.add_argument("--logging", action="store_true", help="measure the cost of TensorBoard logging")
     parser.add_argument(
-        "--log-interval", type=int, default=None, help="with --logging: instead of the default"
+        "--log-interval",
+        type=int,
+        default=None,
+        help="env steps between CommDDPG's logged points, instead of the packaged configuration's default",
     )
     args = parser.parse_args()
     th.set_num_threads(args.threads)
@@ -168,18 +185,22 @@ def main() -> None:
         return CommDDPG(method, env, policy_kwargs={"net_arch": args.net_arch}, **common)
 
     builders = {"TD3": td3, **{m: (lambda m=m: comm(m)) for m in METHODS}}
+    # Logged training points as often as in a real run: CommDDPG's default interval of the packaged
+    # configuration's budget (about 200 points per run; ``learn(args.steps)`` alone would default
+    # to a point every VecEnv step), TD3 SB3's default (every 4 episodes).
+    intervals = {"TD3": 4, **{m: log_interval(m, args) for m in METHODS}}
     # Every model is built and warmed up once, then timed in rounds, each round every model in
     # turn: a slow phase of a shared machine then hits every model of that round alike, and the
     # overhead is the median over rounds of the ratio within a round.
     models = {}
     for name, build in builders.items():
         models[name] = build()
-        models[name].learn(args.warmup)
+        models[name].learn(args.warmup, log_interval=intervals[name])
     rounds: dict[str, list[float]] = {name: [] for name in builders}
     for k in range(args.repeats):
         for name, model in models.items():
             began = time.perf_counter()
-            model.learn(args.steps, reset_num_timesteps=False)
+            model.learn(args.steps, reset_num_timesteps=False, log_interval=intervals[name])
             rounds[name].append(args.steps / (time.perf_counter() - began))
         print(f"round {k + 1}: " + "  ".join(f"{n} {r[-1]:.0f}" for n, r in rounds.items()), flush=True)
     gsn_model = models.get("GSN")
@@ -206,7 +227,9 @@ def main() -> None:
         "rounds of TD3's rate over the model's in that round (a slow phase of the machine hits a whole "
         "round). Overhead < 1: faster than TD3. Target: ≤ 1.0 for every method. GSN's updates in a "
         f"worker process on a spare core (`sb3_comm/comm_ddpg/gsn_worker.py`): {'yes' if worker else 'no'}; "
-        "the other models use no second process."
+        "the other models use no second process. Logged training points: CommDDPG every "
+        f"{', '.join(f'{m} {intervals[m]:,}' for m in METHODS)} env steps (the default of a run of "
+        "the packaged configuration, or `--log-interval`), TD3 every 4 episodes (SB3's default)."
     )
     write_results(
         args.name or f"train_throughput_{args.env.split('-')[0].lower()}",
@@ -217,6 +240,7 @@ def main() -> None:
             "env_steps_per_second_rounds": rounds,
             "overhead_vs_td3": overhead,
             "gsn_worker": worker,
+            "log_interval": intervals,
         },
         "\n".join(rows) + notes,
         title="Training throughput: CommDDPG vs SB3 TD3",
