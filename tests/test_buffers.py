@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch as th
 from gymnasium import spaces
 from stable_baselines3.common.env_util import make_vec_env
 from toy_envs import coin_env
@@ -109,3 +110,34 @@ def test_a_buffer_that_treats_cut_episodes_otherwise_is_refused(tmp_path) -> Non
         completed.load_replay_buffer(tmp_path / "summed.pkl")
     assert completed.replay_buffer is before
     CommDDPG("NONE", env, mc_mixing=0.5).load_replay_buffer(tmp_path / "summed.pkl")  # the same way: fits
+
+
+@pytest.mark.parametrize("explorer_envs", [0, 1])
+def test_sample_fields_draws_the_transitions_of_sample(explorer_envs: int) -> None:
+    """The GSN's light sample: the same transitions (and random draws) as ``sample``, only the fields
+    asked for; the next draw after it is the one after a full sample."""
+    from sb3_comm.comm_ddpg.buffers import JointReplayBuffer
+
+    obs_space = spaces.Box(-1.0, 1.0, (2, 3), np.float32)
+    act_space = spaces.Box(-1.0, 1.0, (2, 2), np.float32)
+    buffer = JointReplayBuffer(50, obs_space, act_space, n_envs=3, explorer_envs=explorer_envs)
+    rng = np.random.default_rng(0)
+    for step in range(20):
+        buffer.add(
+            rng.normal(size=(3, 2, 3)).astype(np.float32),
+            rng.normal(size=(3, 2, 3)).astype(np.float32),
+            rng.uniform(-1, 1, size=(3, 2, 2)).astype(np.float32),
+            np.zeros(3, dtype=np.float32),
+            np.array([step == 9] * 3),
+            [{"agent_rewards": rng.normal(size=2)} for _ in range(3)],
+        )
+    np.random.seed(7)
+    full = buffer.sample(16)
+    after_full = np.random.random()
+    np.random.seed(7)
+    light = buffer.sample_fields(16, ("observations", "rewards"))
+    assert np.random.random() == after_full
+    assert set(vars(light)) == {"observations", "rewards"}
+    assert th.equal(light.observations, full.observations)
+    assert th.equal(light.rewards, full.rewards)
+    assert light.observations.dtype == full.observations.dtype

@@ -126,6 +126,7 @@ def test_one_gsn_update_beside_the_agents_equals_the_reference(monkeypatch: pyte
     assert callback is not None and callback.uses_worker()
     data = model.replay_buffer.sample(16)
     model.replay_buffer.sample = lambda *args, **kwargs: data  # the same batch for GSN and agents
+    model.replay_buffer.sample_fields = lambda batch_size, fields: data
     ref = copy.deepcopy(model.policy.gsn)
     optimizer = _plain_adam(ref, model.policy.gsn.optimizer)
     for group in optimizer.param_groups:
@@ -224,6 +225,63 @@ def test_clip_gradients_gives_torchs_clipped_gradients(scale: float) -> None:
     assert norm <= 1.0 + 1e-5 if scale > 1 else norm < 0.1
 
 
+@pytest.mark.parametrize(
+    "optimizer_class, kwargs",
+    [
+        (th.optim.Adam, {"lr": 1e-3}),
+        (th.optim.Adam, {"lr": 3e-4, "weight_decay": 0.1, "maximize": True}),
+        (th.optim.AdamW, {"lr": 1e-3, "betas": (0.8, 0.99), "eps": 1e-6}),
+    ],
+)
+def test_adam_step_equals_the_optimizers_step_to_the_bit(optimizer_class, kwargs) -> None:
+    """The fused kernel called directly gives the parameters and the state of ``step()``, bit for bit,
+    over steps of changing gradients, two parameter groups and a changed learning rate."""
+    from sb3_comm.common.networks import adam_step
+
+    th.manual_seed(0)
+    ours = [th.nn.Parameter(th.randn(7, 5)), th.nn.Parameter(th.randn(5)), th.nn.Parameter(th.randn(3))]
+    theirs = [th.nn.Parameter(p.detach().clone()) for p in ours]
+    optimizers = [
+        optimizer_class([{"params": params[:2]}, {"params": params[2:], "lr": 0.5}], fused=True, **kwargs)
+        for params in (ours, theirs)
+    ]
+    for k in range(6):
+        if k == 3:
+            for optimizer in optimizers:
+                optimizer.param_groups[0]["lr"] = 0.01
+        for a, b in zip(ours, theirs, strict=True):
+            a.grad = th.randn_like(a) * 10.0 ** (k - 2)
+            b.grad = a.grad.clone()
+        adam_step(optimizers[0])
+        optimizers[1].step()
+        for a, b in zip(ours, theirs, strict=True):
+            assert th.equal(a, b)
+            for key, value in optimizers[1].state[b].items():
+                assert th.equal(optimizers[0].state[a][key], value), key
+
+
+def test_adam_step_leaves_other_optimizers_to_their_step() -> None:
+    """Not a fused Adam, a parameter without a gradient, or a step hook: ``step()`` itself."""
+    from sb3_comm.common.networks import adam_step
+
+    called = []
+    params = [th.nn.Parameter(th.ones(3)), th.nn.Parameter(th.ones(2))]
+    for optimizer in (
+        th.optim.Adam(params, lr=0.1, foreach=False),  # not fused
+        th.optim.SGD(params, lr=0.1),
+        th.optim.Adam(params, lr=0.1, fused=True),
+    ):
+        name = type(optimizer).__name__
+        optimizer.register_step_post_hook(lambda *_, name=name: called.append(name))
+        params[0].grad, params[1].grad = th.ones(3), None
+        adam_step(optimizer)  # the first step of the fused Adam: no state yet
+        params[1].grad = th.ones(2)
+        adam_step(optimizer)
+    assert called == ["Adam", "Adam", "SGD", "SGD", "Adam", "Adam"]
+    # each stepped the second parameter once (its first step: Adam by lr, SGD by lr × gradient)
+    assert th.allclose(params[1], th.full((2,), 0.7))
+
+
 def test_the_agents_batches_are_drawn_before_the_gsns() -> None:
     """The order of the random draws of a GSN trained after the agents (as before the thread):
     per train() call, the agents' batches, then the GSN's, then the next rollout's exploration."""
@@ -246,6 +304,13 @@ def test_the_agents_batches_are_drawn_before_the_gsns() -> None:
         draws.append("gsn" if "_prepare" in callers else "agents")
         return sample(*args, **kwargs)
 
+    sample_fields = model.replay_buffer.sample_fields
+
+    def recorded_fields(*args, **kwargs):  # the GSN's light sample
+        draws.append("gsn" if "_prepare" in {frame.function for frame in inspect.stack()[1:3]} else "?")
+        return sample_fields(*args, **kwargs)
+
     model.replay_buffer.sample = recorded
+    model.replay_buffer.sample_fields = recorded_fields
     model.learn(4, reset_num_timesteps=False)  # two rollouts of 2 steps, two train() calls
     assert draws == ["agents", "agents", "gsn", "gsn"] * 2

@@ -130,11 +130,21 @@ class JointReplayBuffer(MonteCarloReplayBuffer):
         has_previous &= batch_inds != oldest
         return self.observations[previous, env_inds], has_previous
 
+    def _draw_envs(self, batch_size: int) -> np.ndarray:
+        agents_envs = self.n_envs - self.explorer_envs  # the explorer games only train the effect model
+        return np.random.randint(0, high=agents_envs, size=(batch_size,))
+
+    def sample_fields(self, batch_size: int, fields: tuple[str, ...]) -> Any:
+        """See :meth:`MonteCarloReplayBuffer.sample_fields`; with a :attr:`message_relabeler`, the
+        fields of a full :meth:`sample` (the observations are relabelled)."""
+        if self.message_relabeler is not None:
+            return self.sample(batch_size)
+        return super().sample_fields(batch_size, fields)
+
     def _get_samples(
         self, batch_inds: np.ndarray, env: VecNormalize | None = None
     ) -> JointReplayBufferSamples:
-        agents_envs = self.n_envs - self.explorer_envs  # the explorer games only train the effect model
-        env_inds = np.random.randint(0, high=agents_envs, size=(len(batch_inds),))
+        env_inds = self._draw_envs(len(batch_inds))
         samples = self._gather(batch_inds, env_inds)
         if self.message_relabeler is None:
             return samples

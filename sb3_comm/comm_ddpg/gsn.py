@@ -35,7 +35,7 @@ from stable_baselines3.common.utils import FloatSchedule
 from torch import nn
 from torch.nn import functional as F
 
-from sb3_comm.comm_ddpg.gsn_worker import GSNWorker, can_fork, optimizer_state_complete
+from sb3_comm.comm_ddpg.gsn_worker import GSN_BATCH_FIELDS, GSNWorker, can_fork, optimizer_state_complete
 from sb3_comm.common.networks import AgentMLPs, clip_gradients, gradient_step
 
 __all__ = ["BESIDE_AGENTS", "GSNTrainingCallback", "GroundedSemanticNetwork", "spare_core"]
@@ -427,7 +427,7 @@ class GSNTrainingCallback(BaseCallback):
             return
         self.agent_updates_matched += n_updates
         gsn = self.model.policy.gsn  # type: ignore[union-attr]
-        if self.uses_worker() and (self._worker is not None or optimizer_state_complete(gsn.optimizer)):
+        if self._worker is not None or (self.uses_worker() and optimizer_state_complete(gsn.optimizer)):
             if self._worker is None:
                 self._worker = GSNWorker(self, batches[0], capacity=len(batches))
             self._worker.submit(gsn.optimizer.param_groups[0]["lr"], batches)
@@ -469,7 +469,7 @@ class GSNTrainingCallback(BaseCallback):
         replay_buffer = self.model.replay_buffer  # type: ignore[attr-defined]
         if gsn is None or n_updates <= 0 or replay_buffer is None:
             return []
-        gsn.train(True)
+        self._training_mode(gsn)
         lr = self.lr_schedule(self.model.progress_remaining)  # type: ignore[attr-defined]
         for group in gsn.optimizer.param_groups:  # type: ignore[union-attr]
             group["lr"] = lr
@@ -482,12 +482,23 @@ class GSNTrainingCallback(BaseCallback):
             head_lr = self.head_lr_schedule(self.model.progress_remaining)  # type: ignore[attr-defined]
             for group in gsn.head_optimizer.param_groups:
                 group["lr"] = head_lr
+        if not mixes:  # a GSN's regression reads only these fields of its batches
+            return [replay_buffer.sample_fields(self.batch_size, GSN_BATCH_FIELDS) for _ in range(n_updates)]
         batches = [replay_buffer.sample(self.batch_size) for _ in range(n_updates)]
         if gsn.effect_model is not None and getattr(replay_buffer, "explorer_envs", 0):
             # the effect model learns from the explorer games (drawn after the GSN's batches)
             explorers = [replay_buffer.sample_explorers(self.batch_size) for _ in range(n_updates)]
             return [_WithExplorers(data, extra) for data, extra in zip(batches, explorers, strict=True)]
         return batches
+
+    def _training_mode(self, gsn: GroundedSemanticNetwork) -> None:
+        """``gsn.train(True)`` (its mode decides whether it updates its reward statistics), with the
+        modules listed once: ``nn.Module.train`` walks the module tree at every call."""
+        listed = self.__dict__.get("_gsn_modules")
+        if listed is None or listed[0] is not gsn:
+            listed = self.__dict__["_gsn_modules"] = (gsn, list(gsn.modules()))
+        for module in listed[1]:
+            module.__dict__["training"] = True
 
     def current_max_weight(self, progress_remaining: float) -> float:
         """GSN-MAX's maximising share ``w`` at this point of training: ``max_weight``, reached

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import torch as th
 
-__all__ = ["GSNWorker", "can_fork"]
+__all__ = ["GSN_BATCH_FIELDS", "GSNWorker", "can_fork"]
 
 
 def can_fork() -> bool:
@@ -60,7 +60,7 @@ def optimizer_state_complete(optimizer: th.optim.Optimizer) -> bool:
     )
 
 
-_FIELDS = ("observations", "actions", "rewards")
+GSN_BATCH_FIELDS = ("observations", "actions", "rewards")
 """What a GSN update reads of a replay batch."""
 
 
@@ -91,11 +91,14 @@ def _worker_main(
                     group["lr"] = learning_rate
                 if isinstance(batches, int):  # that many batches in the shared slots
                     batches = [
-                        SimpleNamespace(**{name: slots[name][i] for name in _FIELDS}) for i in range(batches)
+                        SimpleNamespace(**{name: slots[name][i] for name in GSN_BATCH_FIELDS})
+                        for i in range(batches)
                     ]
                 else:  # arrays sent through the pipe
                     batches = [
-                        SimpleNamespace(**dict(zip(_FIELDS, map(th.from_numpy, arrays), strict=True)))
+                        SimpleNamespace(
+                            **dict(zip(GSN_BATCH_FIELDS, map(th.from_numpy, arrays), strict=True))
+                        )
                         for arrays in batches
                     ]
                 values = callback._updates(batches)
@@ -127,7 +130,7 @@ class GSNWorker:
         if not optimizer_state_complete(gsn.optimizer):
             raise RuntimeError("the GSN optimizer has no state yet: make one update before the worker starts")
         share_training_state(gsn, [gsn.optimizer])
-        fields = {name: getattr(example, name) for name in _FIELDS}
+        fields = {name: getattr(example, name) for name in GSN_BATCH_FIELDS}
         self._slots = {
             name: th.empty((capacity, *value.shape), dtype=value.dtype).share_memory_()
             for name, value in fields.items()
@@ -155,15 +158,17 @@ class GSNWorker:
         fits = len(batches) <= len(slots["rewards"]) and all(
             getattr(b, name).shape == slots[name].shape[1:] and getattr(b, name).dtype == slots[name].dtype
             for b in batches
-            for name in _FIELDS
+            for name in GSN_BATCH_FIELDS
         )
         if fits:
             for i, batch in enumerate(batches):
-                for name in _FIELDS:
+                for name in GSN_BATCH_FIELDS:
                     slots[name][i].copy_(getattr(batch, name))
             job: Any = len(batches)
         else:
-            job = [tuple(getattr(b, name).detach().cpu().numpy() for name in _FIELDS) for b in batches]
+            job = [
+                tuple(getattr(b, name).detach().cpu().numpy() for name in GSN_BATCH_FIELDS) for b in batches
+            ]
         try:
             self._connection.send((learning_rate, job))
         except (BrokenPipeError, OSError) as error:

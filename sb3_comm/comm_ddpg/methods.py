@@ -202,7 +202,7 @@ class TCG(RIAL):
         """Each sender's message in its receiver's next row: the message leaf (requires grad),
         the receivers' next rows ``o'_j[m_i]`` and their next actions ``a'_j`` (held fixed)."""
         start = policy.comm_layout.obs_message_slice.start
-        received = messages.detach().flip(1).clone().requires_grad_(True)
+        received = messages.detach().flip(1).requires_grad_(True)  # flip copies: a leaf of its own
         next_rows = th.cat([next_obs[..., :start], received], dim=-1)
         with th.no_grad():
             next_actions = policy.actor_outputs(next_rows)

@@ -11,6 +11,7 @@ keeps the agents' rows side by side, and the rewards come per agent from the ste
 
 from __future__ import annotations
 
+from types import SimpleNamespace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -186,11 +187,28 @@ class MonteCarloReplayBuffer(BaseBuffer):
         batch_inds = np.random.randint(0, upper, size=batch_size)
         return self._get_samples(batch_inds, env)
 
+    def sample_fields(self, batch_size: int, fields: tuple[str, ...]) -> Any:
+        """Only ``fields`` (e.g. ``("observations", "actions", "rewards")``) of a uniform sample, drawn
+        with the random numbers :meth:`sample` would draw: the same transitions, without gathering
+        and copying what the caller does not read.
+
+        :return: an object with one ``(B, ...)`` tensor attribute per field, the values of
+            :meth:`sample`'s fields of that name.
+        """
+        upper = self.buffer_size if self.full else self.pos
+        batch_inds = np.random.randint(0, upper, size=batch_size)
+        env_inds = self._draw_envs(len(batch_inds))
+        gathered = {name: getattr(self, name)[batch_inds, env_inds] for name in fields}
+        return SimpleNamespace(**{name: self.to_torch(array, copy=False) for name, array in gathered.items()})
+
+    def _draw_envs(self, batch_size: int) -> np.ndarray:
+        """The environment of each sampled transition (after its step index, in :meth:`sample`)."""
+        return np.random.randint(0, high=self.n_envs, size=(batch_size,))
+
     def _get_samples(
         self, batch_inds: np.ndarray, env: VecNormalize | None = None
     ) -> MonteCarloReplayBufferSamples:
-        env_inds = np.random.randint(0, high=self.n_envs, size=(len(batch_inds),))
-        return self._gather(batch_inds, env_inds)
+        return self._gather(batch_inds, self._draw_envs(len(batch_inds)))
 
     def _gather(self, batch_inds: np.ndarray, env_inds: np.ndarray) -> MonteCarloReplayBufferSamples:
         """The transitions at steps ``batch_inds`` of envs ``env_inds``, as tensors."""
@@ -211,4 +229,5 @@ class MonteCarloReplayBuffer(BaseBuffer):
             self.mc_valid[batch_inds, env_inds].reshape(-1, 1),
             *tail,
         )
-        return MonteCarloReplayBufferSamples(*(self.to_torch(array) for array in data))
+        # every array is a fresh gather: the tensors may share it (no second copy on the CPU)
+        return MonteCarloReplayBufferSamples(*(self.to_torch(array, copy=False) for array in data))
