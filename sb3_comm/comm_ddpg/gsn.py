@@ -36,7 +36,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from sb3_comm.comm_ddpg.gsn_worker import GSN_BATCH_FIELDS, GSNWorker, can_fork, optimizer_state_complete
-from sb3_comm.common.networks import AgentMLPs, clip_gradients, gradient_step
+from sb3_comm.common.networks import AgentMLPs, adam_step, clip_gradients, gradient_step
 
 __all__ = ["BESIDE_AGENTS", "GSNTrainingCallback", "GroundedSemanticNetwork", "spare_core"]
 
@@ -573,7 +573,7 @@ class GSNTrainingCallback(BaseCallback):
                     param.grad = grad
                 if self.max_grad_norm:
                     clip_gradients(trained, self.max_grad_norm)
-                gsn.optimizer.step()  # type: ignore[union-attr]
+                adam_step(gsn.optimizer)  # type: ignore[arg-type]
                 if plain_step is not None:
                     rate = self.sgd * gsn.optimizer.param_groups[0]["lr"]  # type: ignore[union-attr, operator]
                     with th.no_grad():
@@ -677,7 +677,7 @@ class GSNTrainingCallback(BaseCallback):
                 param.grad = grad
             if self.max_grad_norm:
                 clip_gradients(params, self.max_grad_norm)
-            gsn.head_optimizer.step()  # type: ignore[union-attr]
+            adam_step(gsn.head_optimizer)  # type: ignore[arg-type]
             values += [(key, value, 1) for key, value in stats.items()]
         return loss, values
 
