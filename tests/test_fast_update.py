@@ -282,6 +282,28 @@ def test_adam_step_leaves_other_optimizers_to_their_step() -> None:
     assert th.allclose(params[1], th.full((2,), 0.7))
 
 
+def test_adam_step_leaves_a_scheduled_optimizer_to_its_wrapped_step() -> None:
+    """A learning-rate scheduler wraps ``optimizer.step`` on the object to count its calls; that
+    optimizer takes its own ``step`` (no "scheduler stepped before the optimizer" warning)."""
+    import warnings
+
+    from sb3_comm.common.networks import adam_step
+
+    param = th.nn.Parameter(th.ones(3))
+    optimizer = th.optim.Adam([param], lr=0.1, fused=True)
+    param.grad = th.ones(3)
+    optimizer.step()  # the state exists: without the check, adam_step would call the kernel
+    scheduler = th.optim.lr_scheduler.StepLR(optimizer, step_size=1, gamma=0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for _ in range(2):
+            param.grad = th.ones(3)
+            adam_step(optimizer)
+            scheduler.step()
+    assert optimizer.param_groups[0]["lr"] == 0.025
+    assert th.allclose(param, th.full((3,), 1.0 - 0.1 - 0.1 - 0.05), atol=1e-6)
+
+
 def test_the_agents_batches_are_drawn_before_the_gsns() -> None:
     """The order of the random draws of a GSN trained after the agents (as before the thread):
     per train() call, the agents' batches, then the GSN's, then the next rollout's exploration."""

@@ -109,8 +109,9 @@ def _plain_fused_adam(optimizer: th.optim.Optimizer) -> bool:
     """Whether ``optimizer.step()`` is exactly one ``torch._fused_adam_`` (or ``_fused_adamw_``) call
     per parameter group, with nothing around it: a fused :class:`torch.optim.Adam` or ``AdamW`` on
     the CPU, float32, no AMSGrad, a number as the learning rate, no step hooks, every parameter with
-    a gradient and its state (made at its first step)."""
-    if type(optimizer) not in (th.optim.Adam, th.optim.AdamW):
+    a gradient and its state (made at its first step), and ``step`` not replaced on the object (a
+    learning-rate scheduler wraps it to count its calls)."""
+    if type(optimizer) not in (th.optim.Adam, th.optim.AdamW) or "step" in vars(optimizer):
         return False
     if (
         getattr(optimizer, "grad_scale", None) is not None
@@ -124,11 +125,13 @@ def _plain_fused_adam(optimizer: th.optim.Optimizer) -> bool:
     for group in optimizer.param_groups:
         if not group.get("fused") or group["amsgrad"] or group["capturable"] or group["differentiable"]:
             return False
-        if isinstance(group["lr"], th.Tensor) or isinstance(group["betas"][0], th.Tensor):
+        if any(isinstance(value, th.Tensor) for value in (group["lr"], *group["betas"])):
             return False
         for param in group["params"]:
             state = optimizer.state.get(param)
-            if param.grad is None or not state or param.device.type != "cpu" or param.dtype != th.float32:
+            if param.grad is None or param.grad.is_sparse or not state:
+                return False
+            if param.device.type != "cpu" or param.dtype != th.float32:
                 return False
     return True
 
@@ -141,7 +144,7 @@ def adam_step(optimizer: th.optim.Optimizer) -> None:
     device) costs about as much as the fused kernel on a small network (~75-130 µs of ~200 µs per
     step on a 2-core CPU, twice per agent update). The kernel gets the same arguments as in
     ``torch.optim.adam._fused_adam`` (its state steps incremented first), so the parameters and the
-    state are the same to the bit (``tests/test_networks.py``); any other optimizer, or one this
+    state are the same to the bit (``tests/test_fast_update.py``); any other optimizer, or one this
     does not recognise, takes ``optimizer.step()``.
     """
     if not _plain_fused_adam(optimizer):
