@@ -204,7 +204,7 @@ def main() -> None:
             "ms_per_update": {name: statistics.median(values) for name, values in times.items()},
             "rounds_ms": times,
             "saving": 1.0 - 1.0 / statistics.median(ratios),
-            "saving_range": [1.0 - 1.0 / max(ratios), 1.0 - 1.0 / min(ratios)],
+            "saving_range": [1.0 - 1.0 / min(ratios), 1.0 - 1.0 / max(ratios)],
         }
         print(
             f"{method:8s} adam_step {results[method]['ms_per_update']['adam_step']:.2f} ms  "
