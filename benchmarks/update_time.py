@@ -44,8 +44,9 @@ VARIANTS = {
 }
 
 
-def time_method(method: str, args: argparse.Namespace) -> dict[str, list[float]]:
-    """Milliseconds per agent update of each variant, one value per round."""
+def _warmed_up_model(method: str, args: argparse.Namespace) -> CommDDPG:
+    """A model of ``method`` trained ``args.warmup`` env steps: a replay buffer to sample from, and
+    optimizer state."""
     env = make_comm_vec_env(args.env, n_envs=args.n_envs, seed=0)
     model = CommDDPG(
         method,
@@ -56,7 +57,13 @@ def time_method(method: str, args: argparse.Namespace) -> dict[str, list[float]]
         device="cpu",
         policy_kwargs={"net_arch": args.net_arch},
     )
-    model.learn(args.warmup, log_interval=0)  # a replay buffer to sample from, optimizer state
+    model.learn(args.warmup, log_interval=0)
+    return model
+
+
+def time_method(method: str, args: argparse.Namespace) -> dict[str, list[float]]:
+    """Milliseconds per agent update of each variant, one value per round."""
+    model = _warmed_up_model(method, args)
     times: dict[str, list[float]] = {name: [] for name in VARIANTS}
     order = list(VARIANTS)
     try:
@@ -108,12 +115,7 @@ def _use_previous_steps(previous: bool) -> None:
 
 def time_learning(method: str, args: argparse.Namespace) -> dict[str, list[float]]:
     """Environment steps per second of ``learn(args.steps)``, current and previous steps, per round."""
-    env = make_comm_vec_env(args.env, n_envs=args.n_envs, seed=0)
-    model = CommDDPG(
-        method, env, batch_size=args.batch_size, learning_starts=args.batch_size, seed=0, device="cpu",
-        policy_kwargs={"net_arch": args.net_arch},
-    )  # fmt: skip
-    model.learn(args.warmup, log_interval=0)
+    model = _warmed_up_model(method, args)
     rates: dict[str, list[float]] = {"current": [], "previous": []}
     try:
         for k in range(args.rounds):

@@ -80,8 +80,7 @@ class JointReplayBuffer(MonteCarloReplayBuffer):
         """A uniform sample of the explorer games' transitions (as stored: no relabelling)."""
         if not self.explorer_envs:
             raise ValueError("sample_explorers: this buffer has no explorer games (explorer_envs=0)")
-        upper = self.buffer_size if self.full else self.pos
-        batch_inds = np.random.randint(0, upper, size=batch_size)
+        batch_inds = self._draw_steps(batch_size)
         env_inds = np.random.randint(self.n_envs - self.explorer_envs, self.n_envs, size=batch_size)
         return self._gather(batch_inds, env_inds)
 

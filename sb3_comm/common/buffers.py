@@ -183,9 +183,7 @@ class MonteCarloReplayBuffer(BaseBuffer):
 
     def sample(self, batch_size: int, env: VecNormalize | None = None) -> MonteCarloReplayBufferSamples:
         """Uniform sample of ``batch_size`` transitions (env and step drawn uniformly)."""
-        upper = self.buffer_size if self.full else self.pos
-        batch_inds = np.random.randint(0, upper, size=batch_size)
-        return self._get_samples(batch_inds, env)
+        return self._get_samples(self._draw_steps(batch_size), env)
 
     def sample_fields(self, batch_size: int, fields: tuple[str, ...]) -> Any:
         """Only ``fields`` (e.g. ``("observations", "actions", "rewards")``) of a uniform sample, drawn
@@ -195,11 +193,15 @@ class MonteCarloReplayBuffer(BaseBuffer):
         :return: an object with one ``(B, ...)`` tensor attribute per field, the values of
             :meth:`sample`'s fields of that name.
         """
-        upper = self.buffer_size if self.full else self.pos
-        batch_inds = np.random.randint(0, upper, size=batch_size)
+        batch_inds = self._draw_steps(batch_size)
         env_inds = self._draw_envs(len(batch_inds))
         gathered = {name: getattr(self, name)[batch_inds, env_inds] for name in fields}
         return SimpleNamespace(**{name: self.to_torch(array, copy=False) for name, array in gathered.items()})
+
+    def _draw_steps(self, batch_size: int) -> np.ndarray:
+        """The stored step of each sampled transition, uniform over the steps held (drawn first)."""
+        upper = self.buffer_size if self.full else self.pos
+        return np.random.randint(0, upper, size=batch_size)
 
     def _draw_envs(self, batch_size: int) -> np.ndarray:
         """The environment of each sampled transition (after its step index, in :meth:`sample`)."""
