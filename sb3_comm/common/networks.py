@@ -141,8 +141,8 @@ def adam_step(optimizer: th.optim.Optimizer) -> None:
     calls, without the wrapper around it.
 
     ``Optimizer.step``'s wrapper (profiling, hooks, the compiler's guards, grouping the tensors by
-    device) costs about as much as the fused kernel on a small network (~75-130 µs of ~200 µs per
-    step on a 2-core CPU, twice per agent update). The kernel gets the same arguments as in
+    device) costs about as much as the fused kernel on a small network, twice per agent update
+    (``benchmarks/update_time.py`` measures what skipping it saves). The kernel gets the same arguments as in
     ``torch.optim.adam._fused_adam`` (its state steps incremented first), so the parameters and the
     state are the same to the bit (``tests/test_fast_update.py``); any other optimizer, or one this
     does not recognise, takes ``optimizer.step()``.
