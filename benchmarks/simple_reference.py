@@ -246,7 +246,8 @@ def summarise(runs: list[dict[str, Any]], refs: dict[str, Any], args: argparse.N
         f"`CommDDPG(method, env, seed=seed{extra})` "
         f"with no other argument, {args.n_envs} games, "
         f"{args.timesteps:,} steps, channel size {args.channel_size}; {game}; one torch thread per run, "
-        f"{args.workers} runs at a time. Goal: a method whose gap closed is ≥ 0.7. "
+        f"{args.workers} run{'s' if args.workers != 1 else ''} at a time. "
+        "Goal: a method whose gap closed is ≥ 0.7. "
         f"Learning curves: [{figure.name}]({figure.name}) (mean, 95 % t-interval and the worst seed "
         "per method)."
     )
