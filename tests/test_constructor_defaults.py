@@ -21,9 +21,10 @@ def test_a_new_model_and_its_replay_discount_with_0_95(method: str) -> None:
     assert model.replay_buffer.gamma == pytest.approx(0.95)  # the Monte-Carlo returns' discount
 
 
-def test_the_single_agent_learner_keeps_sb3s_0_99() -> None:
+def test_the_single_agent_learner_keeps_sb3s_0_99_and_batches_of_64() -> None:
     model = HybridDDPG("MlpPolicy", make_vec_env("HFOMoveToBall-v0", n_envs=1, seed=0), device="cpu")
     assert model.gamma == pytest.approx(0.99)
+    assert model.batch_size == 64
 
 
 def test_a_file_saved_with_sb3s_0_99_loads_with_it(tmp_path) -> None:
@@ -41,11 +42,6 @@ def test_a_new_model_draws_batches_of_128(method: str) -> None:
     if model.gsn is not None:  # GSN's regression draws the agents' batch size
         model.learn(4)
         assert model.gsn_callback is not None and model.gsn_callback.batch_size == 128
-
-
-def test_the_single_agent_learner_keeps_batches_of_64() -> None:
-    model = HybridDDPG("MlpPolicy", make_vec_env("HFOMoveToBall-v0", n_envs=1, seed=0), device="cpu")
-    assert model.batch_size == 64
 
 
 def test_a_file_saved_with_batches_of_64_loads_with_them(tmp_path) -> None:
