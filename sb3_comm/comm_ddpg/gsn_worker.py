@@ -132,7 +132,7 @@ class GSNWorker:
         share_training_state(gsn, [gsn.optimizer])
         fields = {name: getattr(example, name) for name in GSN_BATCH_FIELDS}
         self._slots = {
-            name: th.empty((capacity, *value.shape), dtype=value.dtype).share_memory_()
+            name: th.empty((capacity, *value.shape), dtype=value.dtype, device="cpu").share_memory_()
             for name, value in fields.items()
         }
         context = mp.get_context("fork")
