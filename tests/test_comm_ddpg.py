@@ -76,7 +76,8 @@ def test_rial_message_gradient_comes_from_own_critic() -> None:
 
 
 def test_gsn_loss_and_agent_losses_touch_disjoint_parameters() -> None:
-    model = filled(make_model("GSN"))
+    # a constant actor rate: after learn, the default decaying rate is at 0 and would move nothing
+    model = filled(make_model("GSN", actor_learning_rate=1e-4))
     policy = model.policy
     gsn_before = [p.detach().clone() for p in policy.gsn.parameters()]
     agents_before = [p.detach().clone() for p in [*policy.actor.parameters(), *policy.critic.parameters()]]

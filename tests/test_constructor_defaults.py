@@ -1,10 +1,12 @@
-"""CommDDPG's constructor defaults: the discount (0.95 since session 19) and the batch size (128
-since session 23): what a new model uses, what the replay's Monte-Carlo returns and GSN's
-regression use, and that a file saved with other settings keeps them."""
+"""CommDDPG's constructor defaults: the discount (0.95 since session 19), the batch size (128
+since session 23) and an actor learning rate that decays linearly to 0 (since session 25): what a
+new model uses, what the replay's Monte-Carlo returns and GSN's regression use, and that a file
+saved with other settings keeps them."""
 
 from __future__ import annotations
 
 import pytest
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_comm import CommDDPG, HybridDDPG, make_comm_vec_env
@@ -31,12 +33,45 @@ def test_the_single_agent_learner_keeps_sb3s_0_99_and_batches_of_64() -> None:
     assert model.batch_size == 64
 
 
-def test_a_file_saved_with_sb3s_0_99_and_batches_of_64_loads_with_them(tmp_path) -> None:
-    """The defaults change what a new model uses, not what a saved model was trained with."""
-    CommDDPG("GSN", _env(), gamma=0.99, batch_size=64, buffer_size=1000, device="cpu").save(
-        tmp_path / "old.zip"
+def test_a_file_saved_with_the_earlier_defaults_loads_with_them(tmp_path) -> None:
+    """The defaults change what a new model uses, not what a saved model was trained with: SB3's
+    0.99, batches of 64 and a constant actor rate."""
+    old = CommDDPG(
+        "GSN", _env(), gamma=0.99, batch_size=64, actor_learning_rate=1e-4, buffer_size=1000, device="cpu"
     )
+    old.save(tmp_path / "old.zip")
     loaded = CommDDPG.load(tmp_path / "old.zip", env=_env(), device="cpu")
     assert loaded.gamma == pytest.approx(0.99)
     assert loaded.replay_buffer.gamma == pytest.approx(0.99)
     assert loaded.batch_size == 64
+    assert loaded.actor_lr_schedule(0.0) == pytest.approx(1e-4)
+
+
+@pytest.mark.parametrize("method", ["NONE", "TCG", "GSN"])
+def test_a_new_model_decays_its_actor_rate_to_zero_and_keeps_the_others_constant(method: str) -> None:
+    """The actor's rate is 1e-4 at the start of training, half of that halfway and 0 at the end;
+    the critic's (1e-3) and GSN's (1e-3) stay; checked on what the optimizers get in a real
+    ``learn``."""
+    model = CommDDPG(method, _env(), buffer_size=1000, learning_starts=0, seed=0, device="cpu")
+    for progress in (1.0, 0.5, 0.0):
+        assert model.actor_lr_schedule(progress) == pytest.approx(1e-4 * progress)
+        assert model.lr_schedule(progress) == pytest.approx(1e-3)
+    rates: list[tuple[float, float, float]] = []
+
+    class Record(BaseCallback):
+        def _on_step(self) -> bool:
+            critic = self.model.critic.optimizer.param_groups[0]["lr"]
+            actor = self.model.actor.optimizer.param_groups[0]["lr"]
+            rates.append((self.model._current_progress_remaining, critic, actor))
+            return True
+
+    model.learn(64, callback=Record())  # 32 VecEnv steps of 2 games, an update after each
+    # SB3 moves the progress after the callback: the first entry is the start, at 1, before any
+    # update; each later one holds the rates of the update made at the progress reached then
+    assert [progress for progress, _, _ in rates] == pytest.approx([1 - k / 32 for k in range(32)])
+    for progress, critic, actor in rates[1:]:
+        assert critic == pytest.approx(1e-3) and actor == pytest.approx(1e-4 * progress)
+    assert model.actor.optimizer.param_groups[0]["lr"] == 0.0
+    assert model.critic.optimizer.param_groups[0]["lr"] == pytest.approx(1e-3)
+    if model.gsn_callback is not None:  # GSN: the message network's own rate stays constant
+        assert model.gsn_callback.lr_schedule(0.0) == pytest.approx(1e-3)

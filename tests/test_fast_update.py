@@ -93,6 +93,7 @@ def test_a_scheduled_mc_mixing_uses_beta_at_the_current_progress() -> None:
     model = CommDDPG(
         "NONE", env, batch_size=16, learning_starts=20, seed=0, tau=0.05, max_grad_norm=0.5,
         mc_mixing=LinearSchedule(0.5, 0.0, 1.0), policy_kwargs={"net_arch": [16, 16]},
+        actor_learning_rate=1e-4,  # the reference's constant rate
     )  # fmt: skip
     model.learn(60)
     assert model.replay_buffer.store_mc_returns
