@@ -120,6 +120,34 @@ def test_stability_pairs_blind_soccer_runs_with_the_visible_oracle_too():
         module.paired_oracles("GuessMyNumber-v0", runs, reference="visible_oracle")
 
 
+def test_stability_summary_pools_distinct_seeds_and_refuses_a_seed_twice():
+    """benchmarks/stability_summary.py --pool judges the seeds of several solves together: passes
+    and failures add up, the worst final is the worst of all, the mean is over every seed; a seed
+    found in two solves would count twice and is refused by name."""
+    module = _load(BENCHMARKS / "stability_summary.py")
+
+    def judged(seeds, finals, failed):
+        return {
+            "seeds": seeds,
+            "paired": {
+                "passed": [s for s in seeds if s not in failed],
+                "failed": failed,
+                "worst_final": min(finals),
+                "finals": finals,
+            },
+        }
+
+    solves = {"a": judged([0, 1, 2], [0.9, 0.8, 1.0], [1]), "b": judged([5, 6], [0.95, 0.7], [6])}
+    pooled = module.pool(solves)
+    assert pooled["seeds"] == [0, 1, 2, 5, 6]
+    assert pooled["paired"]["passed"] == [0, 2, 5] and pooled["paired"]["failed"] == [1, 6]
+    assert pooled["paired"]["worst_final"] == 0.7
+    assert pooled["paired"]["final_fraction"]["mean"]["point"] == pytest.approx(0.87)
+    assert "visible" not in pooled
+    with pytest.raises(SystemExit, match=r"seeds \[2\] are in more than one solve"):
+        module.pool({"a": judged([1, 2], [0.9, 0.9], []), "b": judged([2, 3], [0.9, 0.9], [])})
+
+
 def test_protocol_probe_tells_an_informative_protocol_from_noise_and_a_recoding_from_a_change():
     """benchmarks/protocol_probe.py: messages that encode the ball's bearing give a held-out R² near
     1, messages of pure noise one near 0 or below; a protocol that was only re-coded linearly has a
