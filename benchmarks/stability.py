@@ -58,6 +58,16 @@ def reach_cells(row: dict[str, Any]) -> tuple[str, str]:
     return first, lowest
 
 
+def estimate_cells(estimates: dict[str, Any]) -> list[str]:
+    """``["mean 0.94 [0.93, 0.95]", "IQM 0.94 [0.93, 0.95]"]`` from
+    :func:`sb3_comm.analysis.stats.interval_estimates` (the IQM only where it was computed)."""
+    return [
+        f"{label} {estimates[key]['point']:.2f} [{estimates[key]['low']:.2f}, {estimates[key]['high']:.2f}]"
+        for key, label in (("mean", "mean"), ("iqm", "IQM"))
+        if key in estimates
+    ]
+
+
 def paired_references(env_id: str, runs: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """Every scripted reference's mean return on the very games of the periodic and final
     evaluations (:func:`~sb3_comm.analysis.references.reference_returns`, by game seed).
@@ -189,11 +199,7 @@ def main() -> None:
                 f"{'yes' if r['ends_above'] else 'no'} | {'yes' if r['stays_above_floor'] else 'no'} | "
                 f"{'yes' if ok else '**no**'} |"
             )
-        mean = estimates["mean"]
-        summary = [f"mean {mean['point']:.2f} [{mean['low']:.2f}, {mean['high']:.2f}]"]
-        if "iqm" in estimates:
-            iqm = estimates["iqm"]
-            summary.append(f"IQM {iqm['point']:.2f} [{iqm['low']:.2f}, {iqm['high']:.2f}]")
+        summary = estimate_cells(estimates)
         worst = min(rows_data, key=lambda r: r["final_fraction"])
         rows.append(
             f"\n**{len(passed)} of {len(rows_data)} seeds pass.** Final fraction of the oracle: "

@@ -21,7 +21,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
-from stability import has_visible_oracle, judge_runs, paired_oracles, paired_references
+from stability import estimate_cells, has_visible_oracle, judge_runs, paired_oracles, paired_references
 
 from sb3_comm.analysis.stats import interval_estimates
 
@@ -78,16 +78,6 @@ def pool(judged: dict[str, dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def _estimate_text(estimates: dict[str, Any]) -> str:
-    """``mean 0.94 [0.93, 0.95], IQM 0.94 [0.93, 0.95]`` (the IQM where there are enough seeds)."""
-    parts = []
-    for key, label in (("mean", "mean"), ("iqm", "IQM")):
-        if key in estimates:
-            e = estimates[key]
-            parts.append(f"{label} {e['point']:.2f} [{e['low']:.2f}, {e['high']:.2f}]")
-    return ", ".join(parts)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -136,7 +126,7 @@ def main() -> None:
         p = pooled["paired"]
         rows.append(
             f"| **all, pooled** | {n} seeds | — | **{len(p['passed'])} of {n}**; "
-            f"{_estimate_text(p['final_fraction'])} | {p['worst_final']:.2f} |"
+            f"{', '.join(estimate_cells(p['final_fraction']))} | {p['worst_final']:.2f} |"
             + (
                 f" **{len(pooled['visible']['passed'])} of {n}** | {pooled['visible']['worst_final']:.2f} | "
                 f"{pooled['visible']['failed'] or '—'} |"
