@@ -46,6 +46,8 @@ class CommPolicy(HybridPolicy):
     :param n_critics: 1 for DDPG, 2 for TD3's clipped double Q.
     :param score_gradient: what moves the action scores (see :class:`HybridPolicy`).
     :param critic_layer_norm: normalised hidden layers in the critics (see :class:`HybridPolicy`).
+    :param actor_guard: move the actor back towards the target actor where the critic prefers
+        the target actor's outputs (see :class:`HybridPolicy`).
     :param gsn_net_arch: hidden widths of the GSN message extractor ``M``.
     :param gsn_reward_net_arch: hidden widths of the GSN reward model ``R``.
     :param gsn_message_activation: ``"tanh"`` or ``"linear"`` (see the GSN).
@@ -88,6 +90,7 @@ class CommPolicy(HybridPolicy):
         n_critics: int = 1,
         score_gradient: str = "critic",
         critic_layer_norm: bool = False,
+        actor_guard: bool = False,
         gsn_net_arch: list[int] | None = None,
         gsn_reward_net_arch: list[int] | None = None,
         gsn_message_activation: str = "tanh",
@@ -143,6 +146,7 @@ class CommPolicy(HybridPolicy):
             n_critics=n_critics,
             score_gradient=score_gradient,
             critic_layer_norm=critic_layer_norm,
+            actor_guard=actor_guard,
             optimizer_class=optimizer_class,
             optimizer_kwargs=optimizer_kwargs,
         )

@@ -295,6 +295,7 @@ POLICY_KWARGS: dict[str, Check] = {
     "gsn_effect_paths": OneOf(("total", "action", "direct")),
     "score_gradient": OneOf(SCORE_GRADIENTS),
     "critic_layer_norm": Flag(),
+    "actor_guard": Flag(),
 }
 """What the checked entries of ``policy_kwargs`` accept (others are left to the policy)."""
 

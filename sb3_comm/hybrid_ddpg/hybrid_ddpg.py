@@ -439,6 +439,8 @@ class HybridDDPG(TD3):
             log.add("train/actor_loss", -own_q.mean())
             for key, value in self._actor_step_stats(data, out, grad).items():
                 log.add(key, value)
+            if policy.actor_guard:
+                log.add("train/actor_guarded", policy.guarded_fraction)
 
             # soft update, θ' ← θ' + τ (θ − θ'), all tensors at once
             th._foreach_lerp_(targets, sources, self.tau)

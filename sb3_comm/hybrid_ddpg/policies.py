@@ -52,6 +52,10 @@ class HybridPolicy(BasePolicy):
         :meth:`critic_action_gradients`).
     :param critic_layer_norm: a ``LayerNorm`` after each hidden layer of the critics (off: the
         ICLR 2016 agent). It keeps the critic's features on one scale while its targets move.
+    :param actor_guard: on the rows of an actor update where the (first) critic rates the target
+        actor's outputs above the actor's own, the actor is moved towards the target actor's
+        outputs instead of along the critic's local gradient, with that gradient's length (off: the
+        ICLR 2016 agent; see :meth:`guarded_gradients`).
     :param optimizer_class: optimizer of actor and critic.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
@@ -72,6 +76,7 @@ class HybridPolicy(BasePolicy):
         n_critics: int = 1,
         score_gradient: str = "critic",
         critic_layer_norm: bool = False,
+        actor_guard: bool = False,
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
@@ -79,6 +84,9 @@ class HybridPolicy(BasePolicy):
             raise ValueError(f"score_gradient must be one of {list(SCORE_GRADIENTS)}, got {score_gradient!r}")
         self.score_gradient = score_gradient
         self.critic_layer_norm = bool(critic_layer_norm)
+        self.actor_guard = bool(actor_guard)
+        self.guarded_fraction: th.Tensor | None = None
+        """The share of the rows of the last actor update that ``actor_guard`` redirected."""
         super().__init__(
             observation_space,
             action_space,
@@ -189,7 +197,42 @@ class HybridPolicy(BasePolicy):
         if self.score_gradient == "alternatives" and self.hybrid_layout is not None:
             n = self.hybrid_layout.n_actions
             grad[..., :n] = self.alternative_advantages(obs, out.detach()).reshape(grad[..., :n].shape)
-        return grad, own_q.detach()
+        own_q = own_q.detach()
+        if self.actor_guard:
+            grad = self.guarded_gradients(obs, out.detach(), grad, own_q)
+        return grad, own_q
+
+    def guarded_gradients(
+        self, obs: th.Tensor, out: th.Tensor, grad: th.Tensor, own_q: th.Tensor
+    ) -> th.Tensor:
+        """``actor_guard``: back towards the target actor where the critic prefers its outputs.
+
+        The target actor trails the actor (soft updates), so it is where the actor was recently.
+        Where the critic values the target actor's outputs above the actor's, ``Q(o, μ'(o)) >
+        Q(o, μ(o))``, the actor has moved somewhere its own critic rates worse: the row's ascent
+        direction becomes ``μ'(o) − μ(o)``, scaled to the length of the critic's gradient on that row
+        (so the step size, and the scale of rewards, stay those of the critic's gradient). Other
+        rows keep the critic's gradient. A Q-filter (Nair et al., 2018) whose demonstrator is the
+        target actor; seen before Blind Soccer's collapses: every critic rated the earlier actor's
+        actions above the current one's
+        (``benchmarks/results/collapse_anatomy_blind_soccer_gsn_relabel_seed7.md``).
+
+        :param obs: observations.
+        :param out: bounded actor outputs (detached).
+        :param grad: the critic's ascent direction, shaped like ``out``.
+        :param own_q: the first critic's ``Q`` at ``out`` (detached).
+        :return: the ascent direction, shaped like ``out``.
+        """
+        with th.no_grad():
+            anchor = self.actor_outputs(obs, target=True)
+            anchor_q = self.q_values(obs, anchor)[0]
+            worse = anchor_q > own_q  # (B, 1) for one agent, (B, n_agents) for a team
+            if worse.dim() < grad.dim():
+                worse = worse.unsqueeze(-1)
+            pull = anchor - out
+            length = grad.norm(dim=-1, keepdim=True) / pull.norm(dim=-1, keepdim=True).clamp_min(1e-12)
+            self.guarded_fraction = worse.float().mean()
+            return th.where(worse, pull * length, grad)
 
     def alternative_advantages(self, obs: th.Tensor, out: th.Tensor) -> th.Tensor:
         """The critic's advantage of executing each discrete action with the actor's parameters.
@@ -289,6 +332,7 @@ class HybridPolicy(BasePolicy):
             n_critics=self.n_critics,
             score_gradient=self.score_gradient,
             critic_layer_norm=self.critic_layer_norm,
+            actor_guard=self.actor_guard,
             lr_schedule=self._dummy_schedule,
             optimizer_class=self.optimizer_class,
             optimizer_kwargs=self.optimizer_kwargs,
