@@ -231,3 +231,27 @@ def test_simple_reference_table_reads_every_seed_and_rejects_other_files(tmp_pat
         module.rows_of("missing")
     with pytest.raises(ValueError, match=r"not a result of benchmarks/simple_reference\.py"):
         module.rows_of("other")
+
+
+def test_checkpoint_level_judges_a_curve_by_stability_rule_and_pairs_blocks_with_their_oracle():
+    module = _load(BENCHMARKS / "checkpoint_level.py")
+    # reaches 0.9 at the second reading, then one reading under the floor: fails
+    assert module.judge([0.5, 0.91, 0.79, 0.95], 0.93, reach=0.9, floor=0.8) == {
+        "first_index": 1,
+        "lowest_after": 0.79,
+        "passes": False,
+    }
+    assert module.judge([0.5, 0.91, 0.85, 0.95], 0.93, reach=0.9, floor=0.8)["passes"]
+    assert not module.judge([0.5, 0.91, 0.85, 0.95], 0.89, reach=0.9, floor=0.8)["passes"]  # ends under
+    assert not module.judge([0.5, 0.7], 0.95, reach=0.9, floor=0.8)["passes"]  # never a reading at the bar
+
+    class Team:  # returns 0.5 on the games of seed 1, 0.3 on those of seed 2, 0.6 on the curve's
+        pass
+
+    module.team_returns = lambda model, seed: np.full(100, {1: 0.5, 2: 0.3, 10: 0.6}[seed])
+    row = module.measure(Team(), 10, [1, 2], {1: 0.5, 2: 0.6, 10: 0.6}, {1: 0.4, 2: 0.4, 10: 0.5})
+    assert row["block_fractions"] == [1.0, 0.5]  # each block by its own oracle
+    assert row["curve_fraction"] == pytest.approx(1.0)
+    assert row["level"] == pytest.approx(0.4 / 0.55)  # all games by the oracle's mean on them
+    assert row["visible_level"] == pytest.approx(0.4 / 0.4)
+    assert row["block_sd"] == pytest.approx(np.std([1.0, 0.5], ddof=1))

@@ -1,0 +1,253 @@
+"""Is a dip in a Blind Soccer learning curve the team or the 100 games? Each checkpoint measured on
+many games.
+
+``benchmarks/solve.py`` evaluates a run every ``--eval-freq`` steps on the same 100 games, and
+``benchmarks/stability.py`` fails a seed when one of those evaluations, after the first at
+0.9 × oracle, reads below 0.8 × oracle. One game's return spreads by about 0.27 (0.44 of the
+oracle's mean), so a 100-game mean of a team is uncertain by several hundredths of the oracle,
+and a learning team's small changes re-draw which of the 100 games it wins. This script takes the
+checkpoints a solve kept (``--save-freq``, at the evaluations' steps) and the final ``model.zip``
+of each run folder, and plays each model, deterministic as the evaluations:
+
+* on the periodic evaluation's own 100 games (game seed ``--curve-seed``, 10,000 in ``solve.py``):
+  the replay must give the return ``evaluations.json`` holds for that step (checked, so that the
+  checkpoint is the team the curve measured);
+* on ``--blocks`` other sets of 100 games (game seeds ``--block-seed`` … ``+ blocks − 1``), each
+  divided by the oracle's return on the very same games: the level on ``100 × blocks`` games with
+  a 95 % interval (from the blocks' readings), and the spread of the 100-game readings of one
+  unchanged team (the standard deviation over the blocks, what a 100-game evaluation of that team
+  can read).
+
+Each run is then judged twice by ``stability.py``'s rule (ends ≥ ``--reach``; after the first
+reading at ≥ ``--reach``, none below ``--floor``): by its 100-game curve, as ``stability.py`` does,
+and by the curve of the levels on the many games. Runs without checkpoints give their final
+model's row only.
+
+    python benchmarks/solve.py --conf benchmarks/configs/constructor_defaults.yml --seeds 14 10 \\
+        --eval-freq 50000 --save-freq 50000 --save-dir /work/runs/ckpt --name diag_…
+    python benchmarks/checkpoint_level.py /work/runs/ckpt/BlindSoccer-v0_GSN_seed14 … --name …
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import checkpoints, write_results
+
+ENV_ID = "BlindSoccer-v0"
+GAMES = 100
+"""Games of one reading: a periodic evaluation of ``benchmarks/solve.py``."""
+
+
+def oracle_returns(seed: int) -> tuple[float, float]:
+    """The oracle's and the visible oracle's mean returns on the 100 games of ``seed``."""
+    from sb3_comm.analysis.references import reference_returns
+
+    references = reference_returns(ENV_ID, n_episodes=GAMES, seed=seed)
+    assert references is not None
+    return float(references["oracle"]), float(references["visible_oracle"])
+
+
+def team_returns(model: Any, seed: int) -> np.ndarray:
+    """The deterministic team's return in each of the 100 games of ``seed``."""
+    from sb3_comm.evaluation import evaluate_team
+
+    return np.asarray(evaluate_team(model, ENV_ID, n_episodes=GAMES, seed=seed).team_returns)
+
+
+def measure(
+    model: Any, curve_seed: int, block_seeds: list[int], oracles: dict[int, float], visible: dict[int, float]
+) -> dict[str, Any]:
+    """One model: its reading on the curve's games and its level over the blocks (also against the
+    visible oracle: what a protocol that conveys all the sighted agent sees can reach)."""
+    curve = team_returns(model, curve_seed)
+    blocks = [team_returns(model, seed) for seed in block_seeds]
+    team = np.concatenate(blocks)
+    oracle_mean = float(np.mean([oracles[seed] for seed in block_seeds]))  # 100 games per block
+    fractions = [float(b.mean() / oracles[seed]) for b, seed in zip(blocks, block_seeds, strict=True)]
+    return {
+        "curve_return": float(curve.mean()),
+        "curve_fraction": float(curve.mean() / oracles[curve_seed]),
+        "level": float(team.mean() / oracle_mean),
+        # paired with the oracle block by block: the spread of the blocks' fractions
+        "level_ci95": float(1.96 * np.std(fractions, ddof=1) / np.sqrt(len(fractions))),
+        "block_fractions": fractions,
+        "block_sd": float(np.std(fractions, ddof=1)) if len(fractions) > 1 else float("nan"),
+        "visible_level": float(team.mean() / np.mean([visible[seed] for seed in block_seeds])),
+    }
+
+
+def judge(readings: list[float], final: float, reach: float, floor: float) -> dict[str, Any]:
+    """``stability.py``'s rule on one curve (periodic readings in step order) and its final reading."""
+    first = next((i for i, value in enumerate(readings) if value >= reach), None)
+    lowest = min(readings[first + 1 :], default=None) if first is not None else None
+    passes = final >= reach and first is not None and (lowest is None or lowest >= floor)
+    return {"first_index": first, "lowest_after": lowest, "passes": passes}
+
+
+def recorded_returns(run_dir: Path) -> dict[int, float]:
+    """The periodic evaluations ``evaluations.json`` holds, by step."""
+    path = run_dir / "evaluations.json"
+    if not path.exists():
+        return {}
+    return {int(e["timesteps"]): float(e["mean_return"]) for e in json.loads(path.read_text())}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("runs", nargs="+", help="run folders (benchmarks/solve.py --save-dir)")
+    parser.add_argument("--blocks", type=int, default=10, help="sets of 100 other games per model")
+    parser.add_argument("--block-seed", type=int, default=777, help="game seed of the first set")
+    parser.add_argument(
+        "--curve-seed", type=int, default=10_000, help="game seed of the periodic evaluations"
+    )
+    parser.add_argument("--final-seed", type=int, default=20_000, help="game seed of the final evaluation")
+    parser.add_argument("--reach", type=float, default=0.9)
+    parser.add_argument("--floor", type=float, default=0.8)
+    parser.add_argument("--name", required=True, help="result file stem")
+    args = parser.parse_args()
+    if args.blocks < 2:
+        raise SystemExit(f"--blocks must be at least 2 (the spread needs two readings); got {args.blocks}")
+
+    import torch as th
+
+    from sb3_comm import CommDDPG
+
+    th.set_num_threads(1)
+    block_seeds = [args.block_seed + b for b in range(args.blocks)]
+    if {args.curve_seed, args.final_seed} & set(block_seeds):
+        raise SystemExit(
+            f"--curve-seed {args.curve_seed} and --final-seed {args.final_seed} must not be game seeds "
+            f"of the blocks, {block_seeds}"
+        )
+    both = {seed: oracle_returns(seed) for seed in [args.curve_seed, args.final_seed, *block_seeds]}
+    oracles = {seed: pair[0] for seed, pair in both.items()}
+    visible = {seed: pair[1] for seed, pair in both.items()}
+    results: dict[str, Any] = {}
+    for folder in map(Path, args.runs):
+        if not (folder / "model.zip").exists():
+            raise SystemExit(f"{folder}: no model.zip (a run that has not finished?)")
+        label = f"{folder.resolve().parent.name}/{folder.name}"
+        if label in results:
+            raise SystemExit(f"{folder}: run {label} given twice")
+        recorded = recorded_returns(folder)
+        steps = []
+        for step, path in checkpoints(folder):
+            row = {
+                "step": step,
+                **measure(CommDDPG.load(path, device="cpu"), args.curve_seed, block_seeds, oracles, visible),
+            }
+            row["recorded_return"] = recorded.get(step)
+            row["replay_matches"] = row["recorded_return"] is not None and np.isclose(
+                row["recorded_return"], row["curve_return"], rtol=0, atol=1e-9
+            )
+            steps.append(row)
+            print(label, step, f"{row['curve_fraction']:.3f} {row['level']:.3f}", flush=True)
+        final_model = CommDDPG.load(folder / "model.zip", device="cpu")
+        final = measure(final_model, args.curve_seed, block_seeds, oracles, visible)
+        # the final evaluation of solve.py: its own 100 games
+        final["final_fraction"] = float(
+            team_returns(final_model, args.final_seed).mean() / oracles[args.final_seed]
+        )
+        judged = {}
+        if steps:
+            judged["curve"] = judge(
+                [r["curve_fraction"] for r in steps], final["final_fraction"], args.reach, args.floor
+            )
+            judged["level"] = judge([r["level"] for r in steps], final["level"], args.reach, args.floor)
+        results[label] = {"checkpoints": steps, "final": final, "judged": judged}
+
+    md = []
+    for label, r in results.items():
+        if not r["checkpoints"]:
+            continue
+        md += [
+            f"### {label}",
+            "",
+            f"| step | 100 periodic games (× oracle) | replay = evaluations.json | {100 * args.blocks:,} "
+            "other games (× oracle) [95 %] | 100-game readings of this team: min – max (sd) |",
+            "|---:|---:|---|---:|---:|",
+        ]
+        for row in r["checkpoints"]:
+            md.append(
+                f"| {row['step']:,} | {row['curve_fraction']:.2f} | "
+                f"{'yes' if row['replay_matches'] else '**no**'} | "
+                f"{row['level']:.3f} ± {row['level_ci95']:.3f} | {min(row['block_fractions']):.2f} – "
+                f"{max(row['block_fractions']):.2f} ({row['block_sd']:.3f}) |"
+            )
+        verdicts = []
+        for kind, text in (
+            ("curve", "by the 100-game curve"),
+            ("level", f"by the {100 * args.blocks:,}-game levels"),
+        ):
+            j = r["judged"][kind]
+            lowest = "—" if j["lowest_after"] is None else f"{j['lowest_after']:.2f}"
+            verdicts.append(
+                f"{text}: {'passes' if j['passes'] else '**fails**'} (lowest after the bar {lowest})"
+            )
+        final = r["final"]
+        md += [
+            "",
+            f"Final model: {final['final_fraction']:.2f} on the final evaluation's 100 games, "
+            f"{final['level']:.3f} ± {final['level_ci95']:.3f} on the others. Judged "
+            + "; ".join(verdicts)
+            + ".",
+            "",
+        ]
+    md += [
+        "### Final models",
+        "",
+        f"| run | {100 * args.blocks:,} games (× oracle) [95 %] | 100-game readings: min – max | sd | "
+        f"readings < {args.reach} | readings < {args.floor} | "
+        f"{100 * args.blocks:,} games (× visible oracle) |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for label, r in results.items():
+        f = r["final"]
+        below_reach = sum(x < args.reach for x in f["block_fractions"])
+        below_floor = sum(x < args.floor for x in f["block_fractions"])
+        md.append(
+            f"| {label} | {f['level']:.3f} ± {f['level_ci95']:.3f} | {min(f['block_fractions']):.2f} – "
+            f"{max(f['block_fractions']):.2f} | {f['block_sd']:.3f} | {below_reach} of {args.blocks} | "
+            f"{below_floor} of {args.blocks} | {f['visible_level']:.3f} |"
+        )
+    sds = [r["final"]["block_sd"] for r in results.values()]
+    block_oracle = np.mean([oracles[s] for s in block_seeds])
+    block_visible = np.mean([visible[s] for s in block_seeds])
+    md.append(
+        f"\nEvery model deterministic, one episode per game; a reading is a team's mean over 100 games "
+        f"divided by the oracle's mean on the same games (the oracle: {oracles[args.curve_seed]:.4f} on the "
+        f"periodic games of seed {args.curve_seed}; {block_oracle:.4f} over the blocks, game seeds "
+        f"{block_seeds[0]}–{block_seeds[-1]}; the visible oracle {block_visible:.4f} there, "
+        f"{block_visible / block_oracle:.3f} of the oracle). The interval of a level is 1.96 "
+        "standard errors of the mean of its blocks' readings (each paired with the oracle on its games). "
+        "The spread of one unchanged team's 100-game readings over the final models: median sd "
+        f"{np.median(sds):.3f} of the oracle. "
+        f"Judged by `benchmarks/stability.py`'s rule: ends ≥ {args.reach}; after the first reading ≥ "
+        f"{args.reach}, none below {args.floor}; the 100-game curve ends on the final evaluation's games "
+        f"(seed {args.final_seed}, oracle {oracles[args.final_seed]:.4f}), the levels on the blocks."
+    )
+    write_results(
+        args.name,
+        {
+            "args": vars(args),
+            "oracles": {str(k): v for k, v in oracles.items()},
+            "visible_oracles": {str(k): v for k, v in visible.items()},
+            "runs": results,
+        },
+        "\n".join(md),
+        title="Blind Soccer: each checkpoint on the periodic 100 games and on many others",
+    )
+
+
+if __name__ == "__main__":
+    main()
