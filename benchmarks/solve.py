@@ -1,13 +1,16 @@
 """Train methods on a task and measure how close to the oracle they get, and how fast.
 
 Each (method, seed) run trains CommDDPG with the packaged hyperparameters (``zoo_configs/``),
-evaluates the deterministic team every ``--eval-freq`` steps on 100 parallel games, records the
-wall-clock training time (evaluations excluded) and steps at which the mean return first reached
-``--target-fraction`` × the oracle's return, and ends with a final 100-episode evaluation with the
-messages intact, zeroed and shuffled (the paper's ablation). Runs go in parallel, one process per
-core, each with one torch thread. Resumable: a run whose folder under ``--save-dir`` already holds
-a ``result.json`` with the same settings is read instead of trained again, so a many-seed solve
-can be made in pieces (the same command again, or more seeds), and an interrupted run starts over.
+evaluates the deterministic team every ``--eval-freq`` steps on 100 parallel games
+(``--eval-episodes``), records the wall-clock training time (evaluations excluded) and steps at
+which the mean return first reached ``--target-fraction`` × the oracle's return, and ends with a
+final evaluation on as many games with the messages intact, zeroed and shuffled (the paper's
+ablation). More games measure the team's level more exactly (``benchmarks/checkpoint_level.py``:
+one Blind Soccer team's 100-game readings spread by about 0.025 of the oracle) and leave the
+training as it is. Runs go in parallel, one process per core, each with one torch thread.
+Resumable: a run whose folder under ``--save-dir`` already holds a ``result.json`` with the same
+settings is read instead of trained again, so a many-seed solve can be made in pieces (the same
+command again, or more seeds), and an interrupted run starts over.
 
     python benchmarks/solve.py --env BlindSoccer-v0 --methods GSN NONE --seeds 0 --time-budget 1800
 """
@@ -27,6 +30,9 @@ from _common import finished_run, write_results
 
 from envs.registry import get_task, task_ids
 from sb3_comm.analysis.references import REFERENCE_SEED, reference_returns
+
+EVAL_EPISODES = 100
+"""Games of every periodic and of the final evaluation, unless ``--eval-episodes`` says otherwise."""
 
 
 def oracle_returns(env_id: str) -> tuple[float, float]:
@@ -63,7 +69,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
         run_dir,
         evaluation=EvalSettings(
             freq=job["eval_freq"],
-            episodes=100,
+            episodes=job.get("eval_episodes", EVAL_EPISODES),
             curve_seed=10_000,
             final_seed=20_000,
             target_return=job["target"],
@@ -84,6 +90,12 @@ def main() -> None:
     parser.add_argument("--timesteps", type=int, default=None, help="override the config's n_timesteps")
     parser.add_argument("--time-budget", type=float, default=1800.0, help="seconds of training per run")
     parser.add_argument("--eval-freq", type=int, default=50_000)
+    parser.add_argument(
+        "--eval-episodes",
+        type=int,
+        default=EVAL_EPISODES,
+        help="games of every evaluation, 1 to 1,000 (the scripted references are played on as many)",
+    )
     parser.add_argument("--target-fraction", type=float, default=0.9)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--params", nargs="*", default=[], help="hyperparameter overrides key=value")
@@ -102,6 +114,10 @@ def main() -> None:
 
     from sb3_comm.cli import parse_overrides
 
+    if not 1 <= args.eval_episodes <= 1000:
+        parser.error(
+            f"--eval-episodes must be between 1 and 1,000 (games played at once); got {args.eval_episodes}"
+        )
     oracle, random_return = oracle_returns(args.env)
     target = args.target_fraction * oracle
     overrides = parse_overrides(args.params)
@@ -118,6 +134,8 @@ def main() -> None:
             "overrides": overrides,
             "save_dir": args.save_dir,
             **({"save_freq": args.save_freq} if args.save_freq else {}),
+            # recorded where it is not the default, so that the runs of earlier solves are still read
+            **({"eval_episodes": args.eval_episodes} if args.eval_episodes != EVAL_EPISODES else {}),
             **({"conf": str(Path(args.conf).resolve())} if args.conf else {}),
         }
         for method in args.methods
@@ -165,10 +183,11 @@ def write_summary(
         (f"\n\n**{pending} of {n_jobs} runs not finished yet.**" if pending else "")
         + f"\n\nOracle return {oracle:.4f}, random {random_return:.4f} "
         f"(1,000 episodes, seed {REFERENCE_SEED}); "
-        f"target = {args.target_fraction} × oracle = {target:.4f}. Returns are team means over 100 "
-        "deterministic evaluation episodes. Time to target is training wall-clock time with the "
-        f"periodic evaluations (every {args.eval_freq:,} steps) excluded; each run is one process with "
-        f"one torch thread, {min(args.workers, n_jobs)} runs in parallel on this machine. Time budget "
+        f"target = {args.target_fraction} × oracle = {target:.4f}. Returns are team means over "
+        f"{args.eval_episodes:,} deterministic evaluation episodes. Time to target is training "
+        f"wall-clock time with the periodic evaluations (every {args.eval_freq:,} steps) excluded; each "
+        f"run is one process with one torch thread, {min(args.workers, n_jobs)} runs in parallel on this "
+        "machine. Time budget "
         f"per run: {args.time_budget:.0f} s."
     )
     write_results(

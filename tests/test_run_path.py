@@ -119,10 +119,30 @@ def test_build_model_takes_plain_values_from_the_config() -> None:
 
 def test_a_run_can_stop_at_its_target(tmp_path: Path) -> None:
     """EvalSettings.stop_at_target ends training at the first evaluation that reaches the target."""
-    config = RunConfig.load("NONE", "GuessMyNumber-v0", overrides={**TINY, "n_timesteps": 400})
+    config = RunConfig.load("NONE", "GuessMyNumber-v0", overrides={**TINY, "n_timesteps": 300})
     settings = EvalSettings(
         freq=100, episodes=2, target_return=-1e9, stop_at_target=True, projector_episodes=0
     )
     result = train_run(config, tmp_path / "run", evaluation=settings, save_freq=0)
     assert result.steps_to_target == 100 and result.timesteps == 100
     assert [point["timesteps"] for point in result.curve] == [100]
+
+
+def test_the_number_of_evaluation_games_leaves_the_training_as_it_is(tmp_path: Path) -> None:
+    """More games per evaluation measure a team more exactly (``benchmarks/solve.py
+    --eval-episodes``); the periodic evaluations must not draw on the training's random numbers."""
+    import torch as th
+
+    from sb3_comm import CommDDPG
+
+    config = RunConfig.load("TCG", "GuessMyNumber-v0", seed=3, overrides={**TINY, "n_timesteps": 300})
+    states = []
+    for episodes in (2, 7):
+        settings = EvalSettings(freq=100, episodes=episodes, ablations=("none",))
+        result = train_run(config, tmp_path / f"run{episodes}", evaluation=settings, save_freq=0)
+        assert len(result.curve) == 3 and all(point["n_episodes"] == episodes for point in result.curve)
+        model = CommDDPG.load(tmp_path / f"run{episodes}" / "model.zip", device="cpu")
+        states.append(model.policy.state_dict())
+    assert states[0].keys() == states[1].keys()
+    for key in states[0]:
+        assert th.equal(states[0][key], states[1][key]), key
