@@ -39,9 +39,11 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import final_level
 from _common import checkpoints, write_results
+from stability import seed_row
 
-ENV_ID = "BlindSoccer-v0"
+ENV_ID = final_level.ENV_ID
 GAMES = 100
 """Games of one reading: a periodic evaluation of ``benchmarks/solve.py``."""
 
@@ -57,9 +59,7 @@ def oracle_returns(seed: int) -> tuple[float, float]:
 
 def team_returns(model: Any, seed: int) -> np.ndarray:
     """The deterministic team's return in each of the 100 games of ``seed``."""
-    from sb3_comm.evaluation import evaluate_team
-
-    return np.asarray(evaluate_team(model, ENV_ID, n_episodes=GAMES, seed=seed).team_returns)
+    return final_level.team_returns(model, GAMES, seed)
 
 
 def measure(
@@ -85,11 +85,19 @@ def measure(
 
 
 def judge(readings: list[float], final: float, reach: float, floor: float) -> dict[str, Any]:
-    """``stability.py``'s rule on one curve (periodic readings in step order) and its final reading."""
-    first = next((i for i, value in enumerate(readings) if value >= reach), None)
-    lowest = min(readings[first + 1 :], default=None) if first is not None else None
-    passes = final >= reach and first is not None and (lowest is None or lowest >= floor)
-    return {"first_index": first, "lowest_after": lowest, "passes": passes}
+    """``stability.py``'s rule (:func:`stability.seed_row`) on one curve of fractions (periodic
+    readings in step order) and its final reading."""
+    run = {
+        "seed": None,
+        "final": {"none": {"mean_return": final}},
+        "curve": [{"timesteps": i, "mean_return": value} for i, value in enumerate(readings)],
+    }
+    row = seed_row(run, 1.0, reach, floor)  # the readings are fractions already
+    return {
+        "first_index": row["first_reach_step"],
+        "lowest_after": row["lowest_after_reach"],
+        "passes": row["ends_above"] and row["stays_above_floor"],
+    }
 
 
 def recorded_returns(run_dir: Path) -> dict[int, float]:
