@@ -20,7 +20,7 @@ from typing import Any, ClassVar
 
 import torch as th
 from gymnasium import spaces
-from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
+from stable_baselines3.common.type_aliases import Schedule
 from torch import nn
 
 from sb3_comm.comm_ddpg.gsn import GroundedSemanticNetwork
@@ -48,6 +48,9 @@ class CommPolicy(HybridPolicy):
     :param critic_layer_norm: normalised hidden layers in the critics (see :class:`HybridPolicy`).
     :param actor_guard: move the actor back towards the target actor where the critic prefers
         the target actor's outputs (see :class:`HybridPolicy`).
+    :param averaged_actor: the team plays the target actor, the actor's Polyak average, outside
+        training (see :class:`HybridPolicy`); the messages of RIAL and TCG, actor outputs, then come
+        from it too, a GSN's messages from the GSN as always.
     :param gsn_net_arch: hidden widths of the GSN message extractor ``M``.
     :param gsn_reward_net_arch: hidden widths of the GSN reward model ``R``.
     :param gsn_message_activation: ``"tanh"`` or ``"linear"`` (see the GSN).
@@ -91,6 +94,7 @@ class CommPolicy(HybridPolicy):
         score_gradient: str = "critic",
         critic_layer_norm: bool = False,
         actor_guard: bool = False,
+        averaged_actor: bool = False,
         gsn_net_arch: list[int] | None = None,
         gsn_reward_net_arch: list[int] | None = None,
         gsn_message_activation: str = "tanh",
@@ -147,6 +151,7 @@ class CommPolicy(HybridPolicy):
             score_gradient=score_gradient,
             critic_layer_norm=critic_layer_norm,
             actor_guard=actor_guard,
+            averaged_actor=averaged_actor,
             optimizer_class=optimizer_class,
             optimizer_kwargs=optimizer_kwargs,
         )
@@ -225,9 +230,11 @@ class CommPolicy(HybridPolicy):
         """Names of the agent rows of an observation, for error messages."""
         return tuple(self.comm_layout.agent_names)
 
-    def _predict(self, observation: PyTorchObs, deterministic: bool = True) -> th.Tensor:
+    def scaled_actions(self, observation: th.Tensor, averaged: bool = False) -> th.Tensor:
+        """The team's full action rows ``[environment action | message]`` in scaled units, from
+        the actor or (``averaged``) the target actor; see :meth:`HybridPolicy.scaled_actions`."""
         obs = observation.reshape(observation.shape[0], *self.observation_space.shape)  # type: ignore[union-attr, misc]
-        actions = self.assemble_actions(obs, self.actor_outputs(obs)).clamp(-1.0, 1.0)
+        actions = self.assemble_actions(obs, self.actor_outputs(obs, target=averaged)).clamp(-1.0, 1.0)
         return actions.reshape(observation.shape[0], *self.action_space.shape)  # type: ignore[union-attr]
 
     def _trained_submodules(self) -> list[nn.Module]:

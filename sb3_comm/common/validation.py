@@ -296,6 +296,7 @@ POLICY_KWARGS: dict[str, Check] = {
     "score_gradient": OneOf(SCORE_GRADIENTS),
     "critic_layer_norm": Flag(),
     "actor_guard": Flag(),
+    "averaged_actor": Flag(),
 }
 """What the checked entries of ``policy_kwargs`` accept (others are left to the policy)."""
 

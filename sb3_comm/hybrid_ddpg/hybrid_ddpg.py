@@ -353,7 +353,7 @@ class HybridDDPG(TD3):
         """
         obs = obs_as_tensor(self._last_obs, self.device)  # type: ignore[arg-type]
         with th.no_grad():
-            scaled = self.policy._predict(obs).cpu().numpy()
+            scaled = self.policy.scaled_actions(obs).cpu().numpy()  # the actor, never its average
         # One action row per agent: (n_envs, action_dim) or (n_envs, n_agents, action_dim).
         rows = scaled.reshape(n_envs, *self.action_space.shape)  # type: ignore[misc]
         warmup = self.num_timesteps < learning_starts

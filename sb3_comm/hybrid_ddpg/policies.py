@@ -59,6 +59,11 @@ class HybridPolicy(BasePolicy):
         defaults it made the dips after the bar rarer (11 of 12 seeds pass, 8 without) but the
         teams end lower, 0.88 against 0.90 of the oracle on 1,000 games
         (``benchmarks/results/stability_summary_defaults_bs_gsn_actor_guard_12seeds.md``).
+    :param averaged_actor: the policy's own actions (:meth:`predict`, every evaluation, a saved
+        model's play) come from the target actor, the Polyak average of the actor that DDPG keeps
+        for its critic targets (rate ``tau``), instead of the actor's latest iterate. Training is
+        unchanged: exploration and every update use the actor (see :meth:`scaled_actions`). Off:
+        the ICLR 2016 agent.
     :param optimizer_class: optimizer of actor and critic.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
@@ -80,6 +85,7 @@ class HybridPolicy(BasePolicy):
         score_gradient: str = "critic",
         critic_layer_norm: bool = False,
         actor_guard: bool = False,
+        averaged_actor: bool = False,
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
@@ -90,6 +96,7 @@ class HybridPolicy(BasePolicy):
         self.actor_guard = bool(actor_guard)
         self.guarded_fraction: th.Tensor | None = None
         """The share of the rows of the last actor update that ``actor_guard`` redirected."""
+        self.averaged_actor = bool(averaged_actor)
         super().__init__(
             observation_space,
             action_space,
@@ -274,7 +281,17 @@ class HybridPolicy(BasePolicy):
         return self._predict(obs, deterministic)
 
     def _predict(self, observation: PyTorchObs, deterministic: bool = True) -> th.Tensor:
-        return self.actor_outputs(observation).clamp(-1.0, 1.0)  # type: ignore[arg-type]
+        """The policy's actions: the target actor's with ``averaged_actor``, else the actor's."""
+        return self.scaled_actions(observation, averaged=self.averaged_actor)  # type: ignore[arg-type]
+
+    def scaled_actions(self, observation: th.Tensor, averaged: bool = False) -> th.Tensor:
+        """Actions in SB3's scaled units ``[-1, 1]`` of the actor, or of its Polyak average (the
+        target actor) where ``averaged``. Exploration during training acts on the actor's.
+
+        :param observation: a batch of observations.
+        :param averaged: use the target actor.
+        """
+        return self.actor_outputs(observation, target=averaged).clamp(-1.0, 1.0)
 
     def observation_agents(self) -> tuple[str, ...] | None:
         """Names of the agent rows of an observation, for error messages (None: one agent)."""
@@ -336,6 +353,7 @@ class HybridPolicy(BasePolicy):
             score_gradient=self.score_gradient,
             critic_layer_norm=self.critic_layer_norm,
             actor_guard=self.actor_guard,
+            averaged_actor=self.averaged_actor,
             lr_schedule=self._dummy_schedule,
             optimizer_class=self.optimizer_class,
             optimizer_kwargs=self.optimizer_kwargs,
