@@ -18,6 +18,11 @@ of each run folder, and plays each model, deterministic as the evaluations:
   unchanged team (the standard deviation over the blocks, what a 100-game evaluation of that team
   can read).
 
+With ``--averaged-actor`` every model plays its target actor, the actor's Polyak average
+(``policy_kwargs={"averaged_actor": True}``), after the replay of the periodic games has checked
+the checkpoint as it was saved: the readings of a run trained without the option, played as if it
+had it (its training would be the same: the option changes only what the policy plays).
+
 Each run is then judged twice by ``stability.py``'s rule (ends ≥ ``--reach``; after the first
 reading at ≥ ``--reach``, none below ``--floor``): by its 100-game curve, as ``stability.py`` does,
 and by the curve of the levels on the many games. Runs without checkpoints give their final
@@ -119,6 +124,11 @@ def main() -> None:
         "--curve-seed", type=int, default=10_000, help="game seed of the periodic evaluations"
     )
     parser.add_argument("--final-seed", type=int, default=20_000, help="game seed of the final evaluation")
+    parser.add_argument(
+        "--averaged-actor",
+        action="store_true",
+        help="play every model's target actor (the actor's Polyak average) after the replay check",
+    )
     parser.add_argument("--reach", type=float, default=0.9)
     parser.add_argument("--floor", type=float, default=0.8)
     parser.add_argument("--name", required=True, help="result file stem")
@@ -150,17 +160,18 @@ def main() -> None:
         recorded = recorded_returns(folder)
         steps = []
         for step, path in checkpoints(folder):
-            row = {
-                "step": step,
-                **measure(CommDDPG.load(path, device="cpu"), args.curve_seed, block_seeds, oracles, visible),
-            }
+            model = CommDDPG.load(path, device="cpu")
+            replayed = float(team_returns(model, args.curve_seed).mean())  # the team the curve measured
+            model.policy.averaged_actor = model.policy.averaged_actor or args.averaged_actor
+            row = {"step": step, **measure(model, args.curve_seed, block_seeds, oracles, visible)}
             row["recorded_return"] = recorded.get(step)
             row["replay_matches"] = row["recorded_return"] is not None and np.isclose(
-                row["recorded_return"], row["curve_return"], rtol=0, atol=1e-9
+                row["recorded_return"], replayed, rtol=0, atol=1e-9
             )
             steps.append(row)
             print(label, step, f"{row['curve_fraction']:.3f} {row['level']:.3f}", flush=True)
         final_model = CommDDPG.load(folder / "model.zip", device="cpu")
+        final_model.policy.averaged_actor = final_model.policy.averaged_actor or args.averaged_actor
         final = measure(final_model, args.curve_seed, block_seeds, oracles, visible)
         # the final evaluation of solve.py: its own 100 games
         final["final_fraction"] = float(
@@ -231,13 +242,20 @@ def main() -> None:
     sds = [r["final"]["block_sd"] for r in results.values()]
     block_oracle = np.mean([oracles[s] for s in block_seeds])
     block_visible = np.mean([visible[s] for s in block_seeds])
+    played = (
+        "its target actor, the actor's Polyak average (`--averaged-actor`; the replay of the periodic "
+        "games checks the checkpoint as saved)"
+        if args.averaged_actor
+        else "the policy as saved"
+    )
     md.append(
-        f"\nEvery model deterministic, one episode per game; a reading is a team's mean over 100 games "
-        f"divided by the oracle's mean on the same games (the oracle: {oracles[args.curve_seed]:.4f} on the "
-        f"periodic games of seed {args.curve_seed}; {block_oracle:.4f} over the blocks, game seeds "
-        f"{block_seeds[0]}–{block_seeds[-1]}; the visible oracle {block_visible:.4f} there, "
-        f"{block_visible / block_oracle:.3f} of the oracle). The interval of a level is 1.96 "
-        "standard errors of the mean of its blocks' readings (each paired with the oracle on its games). "
+        f"\nEvery model plays {played}. Every model deterministic, one episode per game; a reading is "
+        "a team's mean over 100 games divided by the oracle's mean on the same games (the oracle: "
+        f"{oracles[args.curve_seed]:.4f} on the periodic games of seed {args.curve_seed}; "
+        f"{block_oracle:.4f} over the blocks, game seeds {block_seeds[0]}–{block_seeds[-1]}; "
+        f"the visible oracle {block_visible:.4f} there, {block_visible / block_oracle:.3f} of the oracle). "
+        "The interval of a level is 1.96 standard errors of the mean of its blocks' readings (each "
+        "paired with the oracle on its games). "
         "The spread of one unchanged team's 100-game readings over the final models: median sd "
         f"{np.median(sds):.3f} of the oracle. "
         f"Judged by `benchmarks/stability.py`'s rule: ends ≥ {args.reach}; after the first reading ≥ "
