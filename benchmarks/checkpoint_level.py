@@ -46,7 +46,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import final_level
 from _common import checkpoints, write_results
-from stability import seed_row
+from stability import estimate_cells, seed_row
 
 ENV_ID = final_level.ENV_ID
 GAMES = 100
@@ -103,6 +103,25 @@ def judge(readings: list[float], final: float, reach: float, floor: float) -> di
         "lowest_after": row["lowest_after_reach"],
         "passes": row["ends_above"] and row["stays_above_floor"],
     }
+
+
+def summary(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """The runs with checkpoints judged together: which pass by the 100-game curve and by the
+    levels, and the mean and IQM (rliable) of the final evaluations' readings and of the final
+    levels."""
+    from sb3_comm.analysis.stats import interval_estimates
+
+    judged = {label: r for label, r in results.items() if r["judged"]}
+    out: dict[str, Any] = {"runs": len(judged)}
+    for kind in ("curve", "level"):
+        out[kind] = {
+            "passed": [label for label, r in judged.items() if r["judged"][kind]["passes"]],
+            "failed": [label for label, r in judged.items() if not r["judged"][kind]["passes"]],
+        }
+    if judged:
+        out["final_fraction"] = interval_estimates([r["final"]["final_fraction"] for r in judged.values()])
+        out["final_level"] = interval_estimates([r["final"]["level"] for r in judged.values()])
+    return out
 
 
 def recorded_returns(run_dir: Path) -> dict[int, float]:
@@ -222,6 +241,25 @@ def main() -> None:
             + ".",
             "",
         ]
+    pooled = summary(results)
+    if pooled["runs"]:
+        n = pooled["runs"]
+        md += [
+            "### All runs with checkpoints",
+            "",
+            f"- By the 100-game curve: **{len(pooled['curve']['passed'])} of {n} pass**"
+            + (f"; fail: {', '.join(pooled['curve']['failed'])}" if pooled["curve"]["failed"] else "")
+            + ".",
+            f"- By the {100 * args.blocks:,}-game levels: {len(pooled['level']['passed'])} of {n} pass"
+            + (f"; fail: {', '.join(pooled['level']['failed'])}" if pooled["level"]["failed"] else "")
+            + ".",
+            "- Final evaluation's 100 games (× oracle): "
+            + ", ".join(estimate_cells(pooled["final_fraction"]))
+            + f"; final level on {100 * args.blocks:,} games: "
+            + ", ".join(estimate_cells(pooled["final_level"]))
+            + " (95 % stratified-bootstrap intervals, rliable).",
+            "",
+        ]
     md += [
         "### Final models",
         "",
@@ -269,6 +307,7 @@ def main() -> None:
             "oracles": {str(k): v for k, v in oracles.items()},
             "visible_oracles": {str(k): v for k, v in visible.items()},
             "runs": results,
+            "summary": pooled,
         },
         "\n".join(md),
         title="Blind Soccer: each checkpoint on the periodic 100 games and on many others",

@@ -255,3 +255,18 @@ def test_checkpoint_level_judges_a_curve_by_stability_rule_and_pairs_blocks_with
     assert row["level"] == pytest.approx(0.4 / 0.55)  # all games by the oracle's mean on them
     assert row["visible_level"] == pytest.approx(0.4 / 0.4)
     assert row["block_sd"] == pytest.approx(np.std([1.0, 0.5], ddof=1))
+
+    def run(curve: bool, level: bool, final: float) -> dict:
+        return {
+            "judged": {"curve": {"passes": curve}, "level": {"passes": level}},
+            "final": {"final_fraction": final, "level": final - 0.05},
+        }
+
+    results = {"a": run(True, True, 0.95), "b": run(False, True, 0.91), "c": run(False, False, 0.85)}
+    results["final only"] = {"judged": {}, "final": {"final_fraction": 0.1, "level": 0.1}}  # no checkpoints
+    pooled = module.summary(results)
+    assert pooled["runs"] == 3
+    assert pooled["curve"] == {"passed": ["a"], "failed": ["b", "c"]}
+    assert pooled["level"] == {"passed": ["a", "b"], "failed": ["c"]}
+    assert pooled["final_fraction"]["mean"]["point"] == pytest.approx(0.9033333, abs=1e-6)
+    assert pooled["final_level"]["mean"]["point"] == pytest.approx(0.8533333, abs=1e-6)
