@@ -31,13 +31,17 @@ model's row only.
     python benchmarks/solve.py --conf benchmarks/configs/constructor_defaults.yml --seeds 14 10 \\
         --eval-freq 50000 --save-freq 50000 --save-dir /work/runs/ckpt --name diag_…
     python benchmarks/checkpoint_level.py /work/runs/ckpt/BlindSoccer-v0_GSN_seed14 … --name …
+
+``--workers N`` measures N run folders at a time (one process and one torch thread each).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import sys
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -124,6 +128,48 @@ def summary(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def measure_run(
+    folder: Path,
+    args: argparse.Namespace,
+    block_seeds: list[int],
+    oracles: dict[int, float],
+    visible: dict[int, float],
+) -> dict[str, Any]:
+    """One run folder: every checkpoint and the final model measured, and the run judged."""
+    import torch as th
+
+    from sb3_comm import CommDDPG
+
+    th.set_num_threads(1)
+    label = f"{folder.resolve().parent.name}/{folder.name}"
+    recorded = recorded_returns(folder)
+    steps = []
+    for step, path in checkpoints(folder):
+        model = CommDDPG.load(path, device="cpu")
+        replayed = float(team_returns(model, args.curve_seed).mean())  # the team the curve measured
+        model.policy.averaged_actor = model.policy.averaged_actor or args.averaged_actor
+        row = {"step": step, **measure(model, args.curve_seed, block_seeds, oracles, visible)}
+        row["recorded_return"] = recorded.get(step)
+        row["replay_matches"] = row["recorded_return"] is not None and np.isclose(
+            row["recorded_return"], replayed, rtol=0, atol=1e-9
+        )
+        steps.append(row)
+        print(label, step, f"{row['curve_fraction']:.3f} {row['level']:.3f}", flush=True)
+    final_model = CommDDPG.load(folder / "model.zip", device="cpu")
+    final_model.policy.averaged_actor = final_model.policy.averaged_actor or args.averaged_actor
+    final = measure(final_model, args.curve_seed, block_seeds, oracles, visible)
+    # the final evaluation of solve.py: its own 100 games
+    final_return = float(team_returns(final_model, args.final_seed).mean())
+    final["final_fraction"] = final_return / oracles[args.final_seed]
+    judged = {}
+    if steps:
+        judged["curve"] = judge(
+            [r["curve_fraction"] for r in steps], final["final_fraction"], args.reach, args.floor
+        )
+        judged["level"] = judge([r["level"] for r in steps], final["level"], args.reach, args.floor)
+    return {"checkpoints": steps, "final": final, "judged": judged}
+
+
 def recorded_returns(run_dir: Path) -> dict[int, float]:
     """The periodic evaluations ``evaluations.json`` holds, by step."""
     path = run_dir / "evaluations.json"
@@ -148,18 +194,18 @@ def main() -> None:
         action="store_true",
         help="play every model's target actor (the actor's Polyak average) after the replay check",
     )
+    parser.add_argument("--workers", type=int, default=1, help="run folders measured in parallel")
     parser.add_argument("--reach", type=float, default=0.9)
     parser.add_argument("--floor", type=float, default=0.8)
     parser.add_argument("--name", required=True, help="result file stem")
     args = parser.parse_args()
     if args.blocks < 2:
         raise SystemExit(f"--blocks must be at least 2 (the spread needs two readings); got {args.blocks}")
-
+    if args.workers < 1:
+        raise SystemExit(f"--workers must be at least 1; got {args.workers}")
     import torch as th
 
-    from sb3_comm import CommDDPG
-
-    th.set_num_threads(1)
+    th.set_num_threads(1)  # before the workers fork: one thread each
     block_seeds = [args.block_seed + b for b in range(args.blocks)]
     if {args.curve_seed, args.final_seed} & set(block_seeds):
         raise SystemExit(
@@ -169,40 +215,20 @@ def main() -> None:
     both = {seed: oracle_returns(seed) for seed in [args.curve_seed, args.final_seed, *block_seeds]}
     oracles = {seed: pair[0] for seed, pair in both.items()}
     visible = {seed: pair[1] for seed, pair in both.items()}
-    results: dict[str, Any] = {}
-    for folder in map(Path, args.runs):
+    folders = [Path(run) for run in args.runs]
+    labels = [f"{folder.resolve().parent.name}/{folder.name}" for folder in folders]
+    for folder, label in zip(folders, labels, strict=True):
         if not (folder / "model.zip").exists():
             raise SystemExit(f"{folder}: no model.zip (a run that has not finished?)")
-        label = f"{folder.resolve().parent.name}/{folder.name}"
-        if label in results:
+        if labels.count(label) > 1:
             raise SystemExit(f"{folder}: run {label} given twice")
-        recorded = recorded_returns(folder)
-        steps = []
-        for step, path in checkpoints(folder):
-            model = CommDDPG.load(path, device="cpu")
-            replayed = float(team_returns(model, args.curve_seed).mean())  # the team the curve measured
-            model.policy.averaged_actor = model.policy.averaged_actor or args.averaged_actor
-            row = {"step": step, **measure(model, args.curve_seed, block_seeds, oracles, visible)}
-            row["recorded_return"] = recorded.get(step)
-            row["replay_matches"] = row["recorded_return"] is not None and np.isclose(
-                row["recorded_return"], replayed, rtol=0, atol=1e-9
-            )
-            steps.append(row)
-            print(label, step, f"{row['curve_fraction']:.3f} {row['level']:.3f}", flush=True)
-        final_model = CommDDPG.load(folder / "model.zip", device="cpu")
-        final_model.policy.averaged_actor = final_model.policy.averaged_actor or args.averaged_actor
-        final = measure(final_model, args.curve_seed, block_seeds, oracles, visible)
-        # the final evaluation of solve.py: its own 100 games
-        final["final_fraction"] = float(
-            team_returns(final_model, args.final_seed).mean() / oracles[args.final_seed]
-        )
-        judged = {}
-        if steps:
-            judged["curve"] = judge(
-                [r["curve_fraction"] for r in steps], final["final_fraction"], args.reach, args.floor
-            )
-            judged["level"] = judge([r["level"] for r in steps], final["level"], args.reach, args.floor)
-        results[label] = {"checkpoints": steps, "final": final, "judged": judged}
+    work = partial(measure_run, args=args, block_seeds=block_seeds, oracles=oracles, visible=visible)
+    if args.workers > 1:
+        with multiprocessing.get_context("fork").Pool(args.workers) as pool:
+            measured = pool.map(work, folders, chunksize=1)
+    else:
+        measured = [work(folder) for folder in folders]
+    results: dict[str, Any] = dict(zip(labels, measured, strict=True))
 
     md = []
     for label, r in results.items():
