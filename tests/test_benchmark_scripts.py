@@ -270,3 +270,14 @@ def test_checkpoint_level_judges_a_curve_by_stability_rule_and_pairs_blocks_with
     assert pooled["level"] == {"passed": ["a", "b"], "failed": ["c"]}
     assert pooled["final_fraction"]["mean"]["point"] == pytest.approx(0.9033333, abs=1e-6)
     assert pooled["final_level"]["mean"]["point"] == pytest.approx(0.8533333, abs=1e-6)
+
+
+def test_averaged_actor_pairs_the_two_players_game_by_game():
+    module = _load(BENCHMARKS / "averaged_actor.py")
+    actor = np.array([1.0, 2.0, 3.0, 4.0])
+    row = module.paired_difference(actor, actor + np.array([0.5, 0.5, 1.5, 1.5]))
+    assert row["actor"] == pytest.approx(2.5) and row["average"] == pytest.approx(3.5)
+    assert row["difference"] == pytest.approx(1.0)
+    assert row["difference_ci95"] == pytest.approx(1.96 * np.std([0.5, 0.5, 1.5, 1.5], ddof=1) / 2)
+    with pytest.raises(ValueError, match="same games"):
+        module.paired_difference(actor, actor[:3])
