@@ -51,6 +51,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import final_level
 from _common import checkpoints, write_results
 from stability import estimate_cells, seed_row
+from stability_variants import drawdown
 
 ENV_ID = final_level.ENV_ID
 GAMES = 100
@@ -111,8 +112,8 @@ def judge(readings: list[float], final: float, reach: float, floor: float) -> di
 
 def summary(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """The runs with checkpoints judged together: which pass by the 100-game curve and by the
-    levels, and the mean and IQM (rliable) of the final evaluations' readings and of the final
-    levels."""
+    levels, each run's largest fall, and the mean and IQM (rliable) of the final evaluations'
+    readings and of the final levels."""
     from sb3_comm.analysis.stats import interval_estimates
 
     judged = {label: r for label, r in results.items() if r["judged"]}
@@ -123,6 +124,7 @@ def summary(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
             "failed": [label for label, r in judged.items() if not r["judged"][kind]["passes"]],
         }
     if judged:
+        out["falls"] = {kind: [r["falls"][kind] for r in judged.values()] for kind in ("curve", "level")}
         out["final_fraction"] = interval_estimates([r["final"]["final_fraction"] for r in judged.values()])
         out["final_level"] = interval_estimates([r["final"]["level"] for r in judged.values()])
     return out
@@ -167,7 +169,12 @@ def measure_run(
             [r["curve_fraction"] for r in steps], final["final_fraction"], args.reach, args.floor
         )
         judged["level"] = judge([r["level"] for r in steps], final["level"], args.reach, args.floor)
-    return {"checkpoints": steps, "final": final, "judged": judged}
+    # the largest fall below the best reading before it (stability_variants.py's drawdown)
+    falls = {
+        "curve": drawdown([r["curve_fraction"] for r in steps]),
+        "level": drawdown([r["level"] for r in steps]),
+    }
+    return {"checkpoints": steps, "final": final, "judged": judged, "falls": falls}
 
 
 def recorded_returns(run_dir: Path) -> dict[int, float]:
@@ -264,7 +271,8 @@ def main() -> None:
             f"Final model: {final['final_fraction']:.2f} on the final evaluation's 100 games, "
             f"{final['level']:.3f} ± {final['level_ci95']:.3f} on the others. Judged "
             + "; ".join(verdicts)
-            + ".",
+            + f". Largest fall below the best reading before it (once at 0.5): "
+            f"{r['falls']['curve']:.2f} on the 100-game curve, {r['falls']['level']:.2f} on the levels.",
             "",
         ]
     pooled = summary(results)
@@ -279,6 +287,10 @@ def main() -> None:
             f"- By the {100 * args.blocks:,}-game levels: {len(pooled['level']['passed'])} of {n} pass"
             + (f"; fail: {', '.join(pooled['level']['failed'])}" if pooled["level"]["failed"] else "")
             + ".",
+            f"- Largest fall of a run below its best reading before (once at 0.5): on the "
+            f"{100 * args.blocks:,}-game levels median {np.median(pooled['falls']['level']):.2f}, worst "
+            f"{max(pooled['falls']['level']):.2f}; on the 100-game curve median "
+            f"{np.median(pooled['falls']['curve']):.2f}, worst {max(pooled['falls']['curve']):.2f}.",
             "- Final evaluation's 100 games (× oracle): "
             + ", ".join(estimate_cells(pooled["final_fraction"]))
             + f"; final level on {100 * args.blocks:,} games: "

@@ -28,6 +28,17 @@ LEARNED = 0.5
 early swings of a team that has learned nothing yet are not collapses."""
 
 
+def drawdown(fractions: list[float]) -> float:
+    """The largest fall of a curve below the best reading before it, counted once the best has
+    reached :data:`LEARNED` (0 for a curve that never falls or never learns)."""
+    best, fall = -float("inf"), 0.0
+    for fraction in fractions:
+        best = max(best, fraction)
+        if best >= LEARNED:
+            fall = max(fall, best - fraction)
+    return fall
+
+
 def labelled_paths(items: list[str]) -> list[tuple[str, str]]:
     """``label=path`` arguments as ``(label, path)`` pairs; anything else is an error."""
     pairs = []
@@ -68,13 +79,7 @@ def variant_rows(label: str, path: str, reach: float, floor: float) -> tuple[str
             if first is not None and step > first
             if fraction < floor
         ]
-        best, drawdown = -float("inf"), 0.0
-        for _, fraction in fractions:
-            best = max(best, fraction)
-            if best < LEARNED:
-                continue
-            drawdown = max(drawdown, best - fraction)
-        row["drawdown"] = drawdown
+        row["drawdown"] = drawdown([fraction for _, fraction in fractions])
         row.update(variant=label, source=path, settings=run.get("hyperparams", {}))
         rows.append(row)
     return data["env"], rows

@@ -260,16 +260,25 @@ def test_checkpoint_level_judges_a_curve_by_stability_rule_and_pairs_blocks_with
         return {
             "judged": {"curve": {"passes": curve}, "level": {"passes": level}},
             "final": {"final_fraction": final, "level": final - 0.05},
+            "falls": {"curve": 1.0 - final, "level": 0.5 - final / 2},
         }
 
     results = {"a": run(True, True, 0.95), "b": run(False, True, 0.91), "c": run(False, False, 0.85)}
-    results["final only"] = {"judged": {}, "final": {"final_fraction": 0.1, "level": 0.1}}  # no checkpoints
+    results["final only"] = {"judged": {}, "final": {"final_fraction": 0.1, "level": 0.1}, "falls": {}}
     pooled = module.summary(results)
     assert pooled["runs"] == 3
     assert pooled["curve"] == {"passed": ["a"], "failed": ["b", "c"]}
     assert pooled["level"] == {"passed": ["a", "b"], "failed": ["c"]}
     assert pooled["final_fraction"]["mean"]["point"] == pytest.approx(0.9033333, abs=1e-6)
     assert pooled["final_level"]["mean"]["point"] == pytest.approx(0.8533333, abs=1e-6)
+    assert pooled["falls"]["curve"] == pytest.approx([0.05, 0.09, 0.15])
+
+
+def test_a_fall_is_counted_below_the_best_reading_once_the_curve_has_learned():
+    module = _load(BENCHMARKS / "stability_variants.py")
+    assert module.drawdown([-0.5, 0.3, -0.2, 0.6, 0.9, 0.7, 0.95, 0.4, 0.9]) == pytest.approx(0.55)
+    assert module.drawdown([-0.5, 0.4, -0.6, 0.3]) == 0.0  # never at 0.5: early swings are not falls
+    assert module.drawdown([0.5, 0.6, 0.7]) == 0.0
 
 
 def test_averaged_actor_pairs_the_two_players_game_by_game():
