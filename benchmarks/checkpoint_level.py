@@ -118,13 +118,15 @@ def summary(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
 
     judged = {label: r for label, r in results.items() if r["judged"]}
     out: dict[str, Any] = {"runs": len(judged)}
-    for kind in ("curve", "level"):
+    for kind in ("curve", "level", "saved_curve"):
         out[kind] = {
             "passed": [label for label, r in judged.items() if r["judged"][kind]["passes"]],
             "failed": [label for label, r in judged.items() if not r["judged"][kind]["passes"]],
         }
     if judged:
-        out["falls"] = {kind: [r["falls"][kind] for r in judged.values()] for kind in ("curve", "level")}
+        out["falls"] = {
+            kind: [r["falls"][kind] for r in judged.values()] for kind in ("curve", "level", "saved_curve")
+        }
         out["final_fraction"] = interval_estimates([r["final"]["final_fraction"] for r in judged.values()])
         out["final_level"] = interval_estimates([r["final"]["level"] for r in judged.values()])
     return out
@@ -155,24 +157,32 @@ def measure_run(
         row["replay_matches"] = row["recorded_return"] is not None and np.isclose(
             row["recorded_return"], replayed, rtol=0, atol=1e-9
         )
+        row["saved_curve_fraction"] = replayed / oracles[args.curve_seed]  # the policy as saved
         steps.append(row)
         print(label, step, f"{row['curve_fraction']:.3f} {row['level']:.3f}", flush=True)
     final_model = CommDDPG.load(folder / "model.zip", device="cpu")
+    # the final evaluation of solve.py (its own 100 games), by the policy as saved and as played here
+    saved_final = float(team_returns(final_model, args.final_seed).mean()) / oracles[args.final_seed]
     final_model.policy.averaged_actor = final_model.policy.averaged_actor or args.averaged_actor
     final = measure(final_model, args.curve_seed, block_seeds, oracles, visible)
-    # the final evaluation of solve.py: its own 100 games
     final_return = float(team_returns(final_model, args.final_seed).mean())
     final["final_fraction"] = final_return / oracles[args.final_seed]
+    final["saved_final_fraction"] = saved_final
     judged = {}
     if steps:
         judged["curve"] = judge(
             [r["curve_fraction"] for r in steps], final["final_fraction"], args.reach, args.floor
         )
         judged["level"] = judge([r["level"] for r in steps], final["level"], args.reach, args.floor)
+        # the policy as saved, on the same 100-game curve (what solve.py's evaluations measured)
+        judged["saved_curve"] = judge(
+            [r["saved_curve_fraction"] for r in steps], saved_final, args.reach, args.floor
+        )
     # the largest fall below the best reading before it (stability_variants.py's drawdown)
     falls = {
         "curve": drawdown([r["curve_fraction"] for r in steps]),
         "level": drawdown([r["level"] for r in steps]),
+        "saved_curve": drawdown([r["saved_curve_fraction"] for r in steps]),
     }
     return {"checkpoints": steps, "final": final, "judged": judged, "falls": falls}
 
@@ -278,6 +288,7 @@ def main() -> None:
     pooled = summary(results)
     if pooled["runs"]:
         n = pooled["runs"]
+        saved_failed = pooled["saved_curve"]["failed"]
         md += [
             "### All runs with checkpoints",
             "",
@@ -287,6 +298,11 @@ def main() -> None:
             f"- By the {100 * args.blocks:,}-game levels: {len(pooled['level']['passed'])} of {n} pass"
             + (f"; fail: {', '.join(pooled['level']['failed'])}" if pooled["level"]["failed"] else "")
             + ".",
+            f"- The policy as saved, by the 100-game curve it was evaluated on (`evaluations.json`): "
+            f"{len(pooled['saved_curve']['passed'])} of {n} pass"
+            + (f"; fail: {', '.join(saved_failed)}" if saved_failed else "")
+            + f"; largest fall per run median {np.median(pooled['falls']['saved_curve']):.2f}, worst "
+            f"{max(pooled['falls']['saved_curve']):.2f}.",
             f"- Largest fall of a run below its best reading before (once at 0.5): on the "
             f"{100 * args.blocks:,}-game levels median {np.median(pooled['falls']['level']):.2f}, worst "
             f"{max(pooled['falls']['level']):.2f}; on the 100-game curve median "

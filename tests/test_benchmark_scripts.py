@@ -258,9 +258,13 @@ def test_checkpoint_level_judges_a_curve_by_stability_rule_and_pairs_blocks_with
 
     def run(curve: bool, level: bool, final: float) -> dict:
         return {
-            "judged": {"curve": {"passes": curve}, "level": {"passes": level}},
+            "judged": {
+                "curve": {"passes": curve},
+                "level": {"passes": level},
+                "saved_curve": {"passes": True},
+            },
             "final": {"final_fraction": final, "level": final - 0.05},
-            "falls": {"curve": 1.0 - final, "level": 0.5 - final / 2},
+            "falls": {"curve": 1.0 - final, "level": 0.5 - final / 2, "saved_curve": 0.0},
         }
 
     results = {"a": run(True, True, 0.95), "b": run(False, True, 0.91), "c": run(False, False, 0.85)}
@@ -269,6 +273,7 @@ def test_checkpoint_level_judges_a_curve_by_stability_rule_and_pairs_blocks_with
     assert pooled["runs"] == 3
     assert pooled["curve"] == {"passed": ["a"], "failed": ["b", "c"]}
     assert pooled["level"] == {"passed": ["a", "b"], "failed": ["c"]}
+    assert pooled["saved_curve"] == {"passed": ["a", "b", "c"], "failed": []}
     assert pooled["final_fraction"]["mean"]["point"] == pytest.approx(0.9033333, abs=1e-6)
     assert pooled["final_level"]["mean"]["point"] == pytest.approx(0.8533333, abs=1e-6)
     assert pooled["falls"]["curve"] == pytest.approx([0.05, 0.09, 0.15])
