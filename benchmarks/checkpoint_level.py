@@ -292,10 +292,11 @@ def main() -> None:
         md += [
             "### All runs with checkpoints",
             "",
-            f"- By the 100-game curve: **{len(pooled['curve']['passed'])} of {n} pass**"
+            f"- As played here, by the 100-game curve: **{len(pooled['curve']['passed'])} of {n} pass**"
             + (f"; fail: {', '.join(pooled['curve']['failed'])}" if pooled["curve"]["failed"] else "")
             + ".",
-            f"- By the {100 * args.blocks:,}-game levels: {len(pooled['level']['passed'])} of {n} pass"
+            f"- As played here, by the {100 * args.blocks:,}-game levels: "
+            f"{len(pooled['level']['passed'])} of {n} pass"
             + (f"; fail: {', '.join(pooled['level']['failed'])}" if pooled["level"]["failed"] else "")
             + ".",
             f"- The policy as saved, by the 100-game curve it was evaluated on (`evaluations.json`): "
@@ -303,9 +304,9 @@ def main() -> None:
             + (f"; fail: {', '.join(saved_failed)}" if saved_failed else "")
             + f"; largest fall per run median {np.median(pooled['falls']['saved_curve']):.2f}, worst "
             f"{max(pooled['falls']['saved_curve']):.2f}.",
-            f"- Largest fall of a run below its best reading before (once at 0.5): on the "
-            f"{100 * args.blocks:,}-game levels median {np.median(pooled['falls']['level']):.2f}, worst "
-            f"{max(pooled['falls']['level']):.2f}; on the 100-game curve median "
+            "- As played here, the largest fall of a run below its best reading before (once at 0.5): "
+            f"on the {100 * args.blocks:,}-game levels median {np.median(pooled['falls']['level']):.2f}, "
+            f"worst {max(pooled['falls']['level']):.2f}; on the 100-game curve median "
             f"{np.median(pooled['falls']['curve']):.2f}, worst {max(pooled['falls']['curve']):.2f}.",
             "- Final evaluation's 100 games (× oracle): "
             + ", ".join(estimate_cells(pooled["final_fraction"]))
