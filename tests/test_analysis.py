@@ -200,7 +200,6 @@ def _steer_receiver_by_message(model: CommDDPG) -> None:
         out.weight[0, :2] = th.tensor([1.0, -1.0])  # dash score grows with m[0]
         out.weight[1, :2] = th.tensor([-1.0, 1.0])  # turn score falls with it
         out.bias[2] = -1.0  # never kick
-    model.policy.actor_target.load_state_dict(model.policy.actor.state_dict())  # its average plays
 
 
 def test_interventional_cic_known_answer_on_a_steered_receiver(gsn_rollout: Rollout) -> None:

@@ -1,7 +1,7 @@
 """CommDDPG's constructor defaults: the discount (0.95 since session 19), the batch size (128
-since session 23), an actor learning rate that decays linearly to 0 (since session 25) and the
-averaged actor playing (since session 28): what a new model uses, what the replay's Monte-Carlo
-returns and GSN's regression use, and that a file saved with other settings keeps them."""
+since session 23) and an actor learning rate that decays linearly to 0 (since session 25): what a
+new model uses, what the replay's Monte-Carlo returns and GSN's regression use, and that a file
+saved with other settings keeps them."""
 
 from __future__ import annotations
 
@@ -75,39 +75,3 @@ def test_a_new_model_decays_its_actor_rate_to_zero_and_keeps_the_others_constant
     assert model.critic.optimizer.param_groups[0]["lr"] == pytest.approx(1e-3)
     if model.gsn_callback is not None:  # GSN: the message network's own rate stays constant
         assert model.gsn_callback.lr_schedule(0.0) == pytest.approx(1e-3)
-
-
-@pytest.mark.parametrize("method", ["NONE", "TCG", "GSN"])
-def test_a_new_model_plays_its_averaged_actor_unless_told_otherwise(method: str) -> None:
-    """The default of session 28: a new team plays its target actor (the actor's Polyak average)."""
-    assert CommDDPG(method, _env(), buffer_size=1000, device="cpu").policy.averaged_actor is True
-    told = CommDDPG(method, _env(), buffer_size=1000, policy_kwargs={"averaged_actor": False}, device="cpu")
-    assert told.policy.averaged_actor is False
-
-
-def test_the_single_agent_learner_plays_its_actor() -> None:
-    model = HybridDDPG("MlpPolicy", make_vec_env("HFOMoveToBall-v0", n_envs=1, seed=0), device="cpu")
-    assert model.policy.averaged_actor is False
-
-
-def test_a_file_saved_before_the_averaged_actor_default_plays_its_actor(tmp_path) -> None:
-    """A model saved before the default existed has no such key in its policy_kwargs: it plays its
-    actor, as it did when it was measured."""
-    old = CommDDPG("GSN", _env(), buffer_size=1000, device="cpu")
-    del old.policy_kwargs["averaged_actor"]  # what a file of an earlier version holds
-    old.save(tmp_path / "old.zip")
-    assert CommDDPG.load(tmp_path / "old.zip", env=_env(), device="cpu").policy.averaged_actor is False
-    new = CommDDPG("GSN", _env(), buffer_size=1000, device="cpu")
-    new.save(tmp_path / "new.zip")
-    assert CommDDPG.load(tmp_path / "new.zip", env=_env(), device="cpu").policy.averaged_actor is True
-
-
-def test_every_packaged_configuration_pins_the_actor_it_was_measured_with() -> None:
-    """The packaged results were measured with the actor playing; no packaged run may follow the
-    constructor's new default unnoticed."""
-    from sb3_comm.config import RunConfig
-
-    for method in ("NONE", "RIAL", "TCG", "GSN", "GSN-MAX"):
-        for env_id in ("BlindSoccer-v0", "GuessMyNumber-v0"):
-            config = RunConfig.load(method, env_id)
-            assert config.algorithm_kwargs()["policy_kwargs"]["averaged_actor"] is False, (method, env_id)

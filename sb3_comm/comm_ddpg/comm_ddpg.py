@@ -55,7 +55,6 @@ from sb3_comm.common.validation import check_hyperparameters
 from sb3_comm.hybrid_ddpg.hybrid_ddpg import HybridDDPG
 
 __all__ = [
-    "AVERAGED_ACTOR",
     "DEFAULT_ACTOR_LEARNING_RATE",
     "GSN_REWARD_SEES_TEAMMATE",
     "METHODS",
@@ -80,15 +79,6 @@ the reward model also sees the teammate's own observation, ``R(M(o_i), a_j, o_j)
 constructor's other defaults it learned more on Blind Soccer (0.79 of the oracle against 0.44, 5
 seeds) and on mpe2 simple_reference (0.58 of the communication gap against 0.29) than the paper's
 ``R(M(o_i), a_j)``, which the packaged configurations pin (README, "Defaults")."""
-
-AVERAGED_ACTOR = True
-"""The default of ``policy_kwargs["averaged_actor"]`` for a new ``CommDDPG(method, env)``: the team
-plays its target actor, the Polyak average of the actor (rate ``tau``), outside training; training
-is the same bit for bit. On Blind Soccer the actor's latest iterate dips for a few thousand steps
-at a time, and the average does not follow it: with the constructor's other defaults, 18 of 20
-seeds pass the stability bar, where the actor itself passes 16, and the final teams play equally
-well (README, "The averaged actor"). The packaged configurations pin False, the setting their
-results were measured with; :class:`HybridDDPG`, the ICLR 2016 agent, plays its actor."""
 
 DEFAULT_ACTOR_LEARNING_RATE = LinearSchedule(1e-4, 0.0, 1.0)
 """``actor_learning_rate`` of a new ``CommDDPG(method, env)``: 1e-4 decaying linearly to 0 over the
@@ -251,8 +241,7 @@ class CommDDPG(HybridDDPG):
     :param policy_kwargs: extra arguments of the policy (``net_arch``, ``n_critics``, ...). For
         GSN, ``gsn_reward_sees_teammate`` defaults to :data:`GSN_REWARD_SEES_TEAMMATE` (True: the
         reward model also sees the teammate's observation); pass False for the paper's GSN, as the
-        packaged configurations do. ``averaged_actor`` defaults to :data:`AVERAGED_ACTOR` (True:
-        the team plays the actor's Polyak average outside training).
+        packaged configurations do.
     :param verbose: 0 silent, 1 info, 2 debug.
     :param seed: random seed.
     :param device: torch device.
@@ -376,10 +365,6 @@ class CommDDPG(HybridDDPG):
             # a new GSN-MAX model: the effect search, unless another design is asked for
             head = bool((policy_kwargs or {}).get("gsn_maximising_head", False))
             policy_kwargs = {"gsn_effect_model": not head, **(policy_kwargs or {})}
-        if _init_setup_model and (policy_kwargs is None or isinstance(policy_kwargs, dict)):
-            # a new model plays its averaged actor unless told otherwise (a saved model keeps the
-            # policy_kwargs it was saved with: one saved before this default plays its actor)
-            policy_kwargs = {"averaged_actor": AVERAGED_ACTOR, **(policy_kwargs or {})}
         self.gsn_callback: GSNTrainingCallback | None = None
         self._in_learn = False
         self._drawn_batches: deque[JointReplayBufferSamples] | None = None
