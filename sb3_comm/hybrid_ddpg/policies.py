@@ -63,7 +63,10 @@ class HybridPolicy(BasePolicy):
         model's play) come from the target actor, the Polyak average of the actor that DDPG keeps
         for its critic targets (rate ``tau``), instead of the actor's latest iterate. Training is
         unchanged: exploration and every update use the actor (see :meth:`scaled_actions`). Off:
-        the ICLR 2016 agent.
+        the ICLR 2016 agent. On Blind Soccer with the constructor's defaults the average has none
+        of the actor's deepest dips after learning and plays the same final team, and passes 17
+        of 20 seeds against the actor's 16 (15 of the 16 seeds it was not found on: not a default;
+        ``benchmarks/results/checkpoint_level_defaults_bs_gsn_20seeds_averaged_actor.md``).
     :param optimizer_class: optimizer of actor and critic.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
