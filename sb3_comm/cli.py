@@ -354,15 +354,20 @@ def _evaluate(args: argparse.Namespace) -> int:
     path = _model_file(args.model)
     env_id = _check_env_id(args.env or _env_of(path))
     model = _load_model(path, args.device)
+    if args.averaged_actor:  # play the actor's Polyak average (policy_kwargs averaged_actor)
+        model.policy.averaged_actor = True
     options = _env_kwargs_of(path, env_id)
     result = evaluate_team(
         model, env_id, n_episodes=args.episodes, seed=args.seed, ablation=args.ablation, env_kwargs=options
     )
-    print(
-        json.dumps(
-            {"env": env_id, "method": model.method, "ablation": args.ablation, **result.summary()}, indent=2
-        )
-    )
+    report = {
+        "env": env_id,
+        "method": model.method,
+        "ablation": args.ablation,
+        "averaged_actor": bool(model.policy.averaged_actor),
+        **result.summary(),
+    }
+    print(json.dumps(report, indent=2))
     if args.projector is not None:
         from sb3_comm.tensorboard import write_projector
 
@@ -580,6 +585,11 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--episodes", type=_count(1), default=100)
     evaluate.add_argument("--seed", type=int, default=12345)
     evaluate.add_argument("--ablation", choices=ABLATIONS, default="none")
+    evaluate.add_argument(
+        "--averaged-actor",
+        action="store_true",
+        help="play the model's target actor, the actor's Polyak average (policy_kwargs averaged_actor)",
+    )
     evaluate.add_argument(
         "--projector",
         metavar="TB_DIR",

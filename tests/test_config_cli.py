@@ -108,6 +108,7 @@ def test_cli_train_then_evaluate(tmp_path, capsys) -> None:
     assert main(["evaluate", str(run / "model.zip"), "--episodes", "2", "--ablation", "zero"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["env"] == "GuessMyNumber-v0" and report["method"] == "GSN" and report["n_episodes"] == 2
+    assert report["averaged_actor"] is False
 
     projector = tmp_path / "projector"
     assert main(["evaluate", str(run / "model.zip"), "--episodes", "2", "--projector", str(projector)]) == 0
@@ -208,3 +209,25 @@ def test_cli_train_refuses_an_unknown_or_single_agent_task(
     assert main(["train", "--env", env_id, "--method", "GSN", "-f", str(tmp_path)]) == 2
     assert message in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
+
+
+def test_cli_evaluate_plays_the_averaged_actor_when_asked(tmp_path, capsys) -> None:
+    """``sb3-comm evaluate --averaged-actor`` plays the target actor: here one that always sends the
+    message +1, so its games differ from the actor's."""
+    import torch as th
+
+    from sb3_comm import CommDDPG, make_comm_vec_env
+
+    model = CommDDPG("TCG", make_comm_vec_env("GuessMyNumber-v0", n_envs=2, seed=0), seed=0, device="cpu")
+    last = model.policy.actor_target.nets[0][-1]
+    with th.no_grad():
+        last.weight.zero_()
+        last.bias.fill_(1.0)
+    model.save(tmp_path / "model.zip")
+    reports = []
+    for flag in ([], ["--averaged-actor"]):
+        command = ["evaluate", str(tmp_path / "model.zip"), "--env", "GuessMyNumber-v0", "--episodes", "2"]
+        assert main(command + flag) == 0
+        reports.append(json.loads(capsys.readouterr().out))
+    assert [r["averaged_actor"] for r in reports] == [False, True]
+    assert reports[0]["agent_mean_returns"] != reports[1]["agent_mean_returns"]
