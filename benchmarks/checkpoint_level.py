@@ -21,7 +21,9 @@ of each run folder, and plays each model, deterministic as the evaluations:
 With ``--averaged-actor`` every model plays its target actor, the actor's Polyak average
 (``policy_kwargs={"averaged_actor": True}``), after the replay of the periodic games has checked
 the checkpoint as it was saved: the readings of a run trained without the option, played as if it
-had it (its training would be the same: the option changes only what the policy plays).
+had it (its training would be the same: the option changes only what the policy plays). The
+summary then also pairs the readings as saved and as played, checkpoint by checkpoint, from step
+``--compare-from`` on.
 
 Each run is then judged twice by ``stability.py``'s rule (ends ≥ ``--reach``; after the first
 reading at ≥ ``--reach``, none below ``--floor``): by its 100-game curve, as ``stability.py`` does,
@@ -132,6 +134,46 @@ def summary(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def as_saved_then_played(model: Any, seed: int, averaged_actor: bool) -> float | None:
+    """With ``averaged_actor``, the mean return of ``model`` as saved on the 100 games of ``seed``,
+    then the model switched to play its averaged actor; None where what it plays does not change
+    (its readings as played are then those as saved)."""
+    if not averaged_actor or model.policy.averaged_actor:
+        return None
+    saved = float(team_returns(model, seed).mean())
+    model.policy.averaged_actor = True
+    return saved
+
+
+def paired_readings(results: dict[str, dict[str, Any]], since: int, floor: float) -> dict[str, Any]:
+    """The periodic readings from step ``since`` on, the policy as saved against as played here,
+    checkpoint by checkpoint: how many fall below ``floor``, each run's lowest (their mean and the
+    four lowest), and how many readings are higher or lower as played, with the mean difference."""
+    pairs = {
+        label: [
+            (c["saved_curve_fraction"], c["curve_fraction"]) for c in r["checkpoints"] if c["step"] >= since
+        ]
+        for label, r in results.items()
+    }
+    pairs = {label: p for label, p in pairs.items() if p}
+    flat = [pair for p in pairs.values() for pair in p]
+    out: dict[str, Any] = {"since": since, "readings": len(flat)}
+    if not flat:
+        return out
+    for index, kind in enumerate(("saved", "played")):
+        lowest = sorted(min(pair[index] for pair in p) for p in pairs.values())
+        out[kind] = {
+            "below_floor": sum(pair[index] < floor for pair in flat),
+            "lowest_mean": float(np.mean(lowest)),
+            "four_lowest": lowest[:4],
+        }
+    differences = [played - saved for saved, played in flat]
+    out["higher"] = sum(d > 0 for d in differences)
+    out["lower"] = sum(d < 0 for d in differences)
+    out["mean_difference"] = float(np.mean(differences))
+    return out
+
+
 def measure_run(
     folder: Path,
     args: argparse.Namespace,
@@ -150,9 +192,9 @@ def measure_run(
     steps = []
     for step, path in checkpoints(folder):
         model = CommDDPG.load(path, device="cpu")
-        replayed = float(team_returns(model, args.curve_seed).mean())  # the team the curve measured
-        model.policy.averaged_actor = model.policy.averaged_actor or args.averaged_actor
+        saved = as_saved_then_played(model, args.curve_seed, args.averaged_actor)
         row = {"step": step, **measure(model, args.curve_seed, block_seeds, oracles, visible)}
+        replayed = row["curve_return"] if saved is None else saved  # the team the curve measured
         row["recorded_return"] = recorded.get(step)
         row["replay_matches"] = row["recorded_return"] is not None and np.isclose(
             row["recorded_return"], replayed, rtol=0, atol=1e-9
@@ -162,12 +204,12 @@ def measure_run(
         print(label, step, f"{row['curve_fraction']:.3f} {row['level']:.3f}", flush=True)
     final_model = CommDDPG.load(folder / "model.zip", device="cpu")
     # the final evaluation of solve.py (its own 100 games), by the policy as saved and as played here
-    saved_final = float(team_returns(final_model, args.final_seed).mean()) / oracles[args.final_seed]
-    final_model.policy.averaged_actor = final_model.policy.averaged_actor or args.averaged_actor
+    saved = as_saved_then_played(final_model, args.final_seed, args.averaged_actor)
     final = measure(final_model, args.curve_seed, block_seeds, oracles, visible)
     final_return = float(team_returns(final_model, args.final_seed).mean())
     final["final_fraction"] = final_return / oracles[args.final_seed]
-    final["saved_final_fraction"] = saved_final
+    final["saved_final_fraction"] = (final_return if saved is None else saved) / oracles[args.final_seed]
+    saved_final = final["saved_final_fraction"]
     judged = {}
     if steps:
         judged["curve"] = judge(
@@ -214,6 +256,12 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=1, help="run folders measured in parallel")
     parser.add_argument("--reach", type=float, default=0.9)
     parser.add_argument("--floor", type=float, default=0.8)
+    parser.add_argument(
+        "--compare-from",
+        type=int,
+        default=250_000,
+        help="with --averaged-actor: pair the readings as saved and as played from this step on",
+    )
     parser.add_argument("--name", required=True, help="result file stem")
     args = parser.parse_args()
     if args.blocks < 2:
@@ -313,8 +361,23 @@ def main() -> None:
             + f"; final level on {100 * args.blocks:,} games: "
             + ", ".join(estimate_cells(pooled["final_level"]))
             + " (95 % stratified-bootstrap intervals, rliable).",
-            "",
         ]
+        paired = paired_readings(results, args.compare_from, args.floor) if args.averaged_actor else {}
+        if paired.get("readings"):
+            pooled["paired"] = paired
+            cells = {
+                kind: f"{paired[kind]['below_floor']} below {args.floor}, each run's lowest "
+                f"{paired[kind]['lowest_mean']:.3f} on average, the four lowest "
+                + ", ".join(f"{x:.2f}" for x in paired[kind]["four_lowest"])
+                for kind in ("saved", "played")
+            }
+            md += [
+                f"- The {paired['readings']} periodic readings from step {args.compare_from:,} on, paired: "
+                f"as saved {cells['saved']}; as played here {cells['played']}. As played here "
+                f"{paired['higher']} are higher, {paired['lower']} lower, mean difference "
+                f"{paired['mean_difference']:+.4f}.",
+            ]
+        md += [""]
     md += [
         "### Final models",
         "",

@@ -279,6 +279,38 @@ def test_checkpoint_level_judges_a_curve_by_stability_rule_and_pairs_blocks_with
     assert pooled["falls"]["curve"] == pytest.approx([0.05, 0.09, 0.15])
 
 
+def test_checkpoint_level_pairs_the_readings_as_saved_and_as_played_from_a_step_on():
+    module = _load(BENCHMARKS / "checkpoint_level.py")
+
+    def run(*readings: tuple[int, float, float]) -> dict:
+        return {
+            "checkpoints": [
+                {"step": t, "saved_curve_fraction": a, "curve_fraction": b} for t, a, b in readings
+            ]
+        }
+
+    results = {
+        "a": run((100, 0.1, 0.9), (200, 0.7, 0.85), (300, 0.9, 0.88)),
+        "b": run((200, 0.95, 0.75), (300, 0.6, 0.9)),
+        "c": run((100, 0.2, 0.3)),  # nothing from step 200 on: not counted
+    }
+    paired = module.paired_readings(results, since=200, floor=0.8)
+    assert paired["readings"] == 4
+    assert paired["saved"] == {
+        "below_floor": 2,
+        "lowest_mean": pytest.approx(0.65),
+        "four_lowest": [0.6, 0.7],
+    }
+    assert paired["played"] == {
+        "below_floor": 1,
+        "lowest_mean": pytest.approx(0.8),
+        "four_lowest": [0.75, 0.85],
+    }
+    assert (paired["higher"], paired["lower"]) == (2, 2)
+    assert paired["mean_difference"] == pytest.approx((0.15 - 0.02 - 0.2 + 0.3) / 4)
+    assert module.paired_readings(results, since=400, floor=0.8) == {"since": 400, "readings": 0}
+
+
 def test_a_fall_is_counted_below_the_best_reading_once_the_curve_has_learned():
     module = _load(BENCHMARKS / "stability_variants.py")
     assert module.drawdown([-0.5, 0.3, -0.2, 0.6, 0.9, 0.7, 0.95, 0.4, 0.9]) == pytest.approx(0.55)
