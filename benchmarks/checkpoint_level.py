@@ -23,7 +23,9 @@ With ``--averaged-actor`` every model plays its target actor, the actor's Polyak
 the checkpoint as it was saved: the readings of a run trained without the option, played as if it
 had it (its training would be the same: the option changes only what the policy plays). The
 summary then also pairs the readings as saved and as played, checkpoint by checkpoint, from step
-``--compare-from`` on.
+``--compare-from`` on. With ``--actor-average TAU`` as well, the average played is not the target
+actor but the slower one at rate ``TAU`` that ``solve.py --actor-averages`` kept beside each
+checkpoint (``benchmarks/_actor_averages.py``).
 
 Each run is then judged twice by ``stability.py``'s rule (ends ≥ ``--reach``; after the first
 reading at ≥ ``--reach``, none below ``--floor``): by its 100-game curve, as ``stability.py`` does,
@@ -51,6 +53,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import final_level
+from _actor_averages import average_path, load_actor_average
 from _common import checkpoints, write_results
 from stability import estimate_cells, seed_row
 from stability_variants import drawdown
@@ -192,6 +195,8 @@ def measure_run(
     steps = []
     for step, path in checkpoints(folder):
         model = CommDDPG.load(path, device="cpu")
+        if args.actor_average is not None:  # a slower average kept beside the checkpoint
+            load_actor_average(model, average_path(folder, step), args.actor_average)
         saved = as_saved_then_played(model, args.curve_seed, args.averaged_actor)
         row = {"step": step, **measure(model, args.curve_seed, block_seeds, oracles, visible)}
         replayed = row["curve_return"] if saved is None else saved  # the team the curve measured
@@ -203,6 +208,8 @@ def measure_run(
         steps.append(row)
         print(label, step, f"{row['curve_fraction']:.3f} {row['level']:.3f}", flush=True)
     final_model = CommDDPG.load(folder / "model.zip", device="cpu")
+    if args.actor_average is not None:
+        load_actor_average(final_model, average_path(folder, None), args.actor_average)
     # the final evaluation of solve.py (its own 100 games), by the policy as saved and as played here
     saved = as_saved_then_played(final_model, args.final_seed, args.averaged_actor)
     final = measure(final_model, args.curve_seed, block_seeds, oracles, visible)
@@ -253,6 +260,14 @@ def main() -> None:
         action="store_true",
         help="play every model's target actor (the actor's Polyak average) after the replay check",
     )
+    parser.add_argument(
+        "--actor-average",
+        type=float,
+        default=None,
+        metavar="TAU",
+        help="with --averaged-actor: play the average at this rate that solve.py --actor-averages "
+        "kept beside each checkpoint, instead of the target actor",
+    )
     parser.add_argument("--workers", type=int, default=1, help="run folders measured in parallel")
     parser.add_argument("--reach", type=float, default=0.9)
     parser.add_argument("--floor", type=float, default=0.8)
@@ -266,6 +281,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.blocks < 2:
         raise SystemExit(f"--blocks must be at least 2 (the spread needs two readings); got {args.blocks}")
+    if args.actor_average is not None and not args.averaged_actor:
+        raise SystemExit("--actor-average TAU chooses which average --averaged-actor plays: give both")
     if args.workers < 1:
         raise SystemExit(f"--workers must be at least 1; got {args.workers}")
     import torch as th
@@ -404,6 +421,12 @@ def main() -> None:
         if args.averaged_actor
         else "the policy as saved"
     )
+    if args.actor_average is not None:
+        played = (
+            f"the actor's Polyak average at rate {args.actor_average:g} that the run kept beside the "
+            "checkpoint (`--averaged-actor --actor-average`, benchmarks/_actor_averages.py; the replay "
+            "of the periodic games checks the checkpoint as saved)"
+        )
     md.append(
         f"\nEvery model plays {played}. Every model deterministic, one episode per game; a reading is "
         "a team's mean over 100 games divided by the oracle's mean on the same games (the oracle: "

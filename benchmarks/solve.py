@@ -64,6 +64,11 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
         shutil.rmtree(run_dir)
     run_dir.mkdir(parents=True)
     settings.write_text(json.dumps(job, indent=1))
+    averages = []
+    if job.get("actor_averages"):  # slower averages of the actor beside the checkpoints (a diagnostic)
+        from _actor_averages import ActorAveragesCallback
+
+        averages.append(ActorAveragesCallback(job["actor_averages"], job["save_freq"], run_dir))
     result = train_run(
         config,
         run_dir,
@@ -75,7 +80,7 @@ def run_one(job: dict[str, Any]) -> dict[str, Any]:
             target_return=job["target"],
         ),
         save_freq=job.get("save_freq", 0),
-        callbacks=[TimeBudgetCallback(job["time_budget"])],
+        callbacks=[TimeBudgetCallback(job["time_budget"]), *averages],
     )
     return result.to_json()
 
@@ -108,6 +113,15 @@ def main() -> None:
     parser.add_argument(
         "--save-freq", type=int, default=0, help="a checkpoint every this many steps (0: none)"
     )
+    parser.add_argument(
+        "--actor-averages",
+        nargs="+",
+        type=float,
+        default=None,
+        metavar="TAU",
+        help="keep Polyak averages of the actor at these rates beside each checkpoint "
+        "(benchmarks/_actor_averages.py; needs --save-freq; training is unchanged)",
+    )
     parser.add_argument("--save-dir", default="runs/benchmarks", help="where the run folders go")
     parser.add_argument("--name", default=None, help="result file stem")
     args = parser.parse_args()
@@ -118,6 +132,8 @@ def main() -> None:
         parser.error(
             f"--eval-episodes must be between 1 and 1,000 (games played at once); got {args.eval_episodes}"
         )
+    if args.actor_averages and not args.save_freq:
+        parser.error("--actor-averages are saved with the checkpoints: give --save-freq too")
     oracle, random_return = oracle_returns(args.env)
     target = args.target_fraction * oracle
     overrides = parse_overrides(args.params)
@@ -134,6 +150,7 @@ def main() -> None:
             "overrides": overrides,
             "save_dir": args.save_dir,
             **({"save_freq": args.save_freq} if args.save_freq else {}),
+            **({"actor_averages": args.actor_averages} if args.actor_averages else {}),
             # recorded where it is not the default, so that the runs of earlier solves are still read
             **({"eval_episodes": args.eval_episodes} if args.eval_episodes != EVAL_EPISODES else {}),
             **({"conf": str(Path(args.conf).resolve())} if args.conf else {}),

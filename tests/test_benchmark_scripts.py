@@ -327,3 +327,61 @@ def test_averaged_actor_pairs_the_two_players_game_by_game():
     assert row["difference_ci95"] == pytest.approx(1.96 * np.std([0.5, 0.5, 1.5, 1.5], ddof=1) / 2)
     with pytest.raises(ValueError, match="same games"):
         module.paired_difference(actor, actor[:3])
+
+
+def test_actor_averages_at_ddpgs_rate_equal_the_target_actor_and_leave_training_unchanged(tmp_path):
+    """``solve.py --actor-averages``: an average kept at DDPG's own rate ``tau`` is the target actor
+    of the checkpoint saved at the same step, bit for bit; a slower one lags it; training with the
+    callback gives the same actor as without; a rate the file lacks is a clear error."""
+    import torch as th
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from sb3_comm import CommDDPG, make_comm_vec_env
+
+    module = _load(BENCHMARKS / "_actor_averages.py")
+
+    class TargetsAtSaves(BaseCallback):  # what a checkpoint saved at this step holds
+        def __init__(self) -> None:
+            super().__init__()
+            self.saved: dict[int, list[th.Tensor]] = {}
+
+        def _on_step(self) -> bool:
+            if self.n_calls % 10 == 0:
+                target = self.model.policy.actor_target
+                self.saved[self.num_timesteps] = [p.clone() for p in target.parameters()]
+            return True
+
+    def team() -> CommDDPG:
+        env = make_comm_vec_env("BlindSoccer-v0", n_envs=2, seed=0)
+        return CommDDPG("GSN", env, learning_starts=10, batch_size=8, seed=0, device="cpu",
+                        policy_kwargs={"net_arch": [8, 8]})  # fmt: skip
+
+    with pytest.raises(ValueError, match=r"rates must be in \(0, 1\]"):
+        module.ActorAveragesCallback([0.0], 20, tmp_path)
+    with pytest.raises(ValueError, match="save_freq > 0"):
+        module.ActorAveragesCallback([0.01], 0, tmp_path)
+
+    model, targets = team(), TargetsAtSaves()
+    model.learn(60, callback=[targets, module.ActorAveragesCallback([model.tau, 0.001], 20, tmp_path)])
+    assert sorted(targets.saved) == [20, 40, 60]
+    for step, saved in targets.saved.items():
+        path = module.average_path(tmp_path, step)
+        averages = th.load(path, weights_only=True)["averages"]
+        for average, target in zip(averages[model.tau], saved, strict=True):
+            assert th.equal(average, target), f"the average at rate tau is not the target actor at {step}"
+    assert module.average_path(tmp_path, None).exists()
+
+    plain = team()
+    plain.learn(60)
+    pairs = zip(model.policy.actor.parameters(), plain.policy.actor.parameters(), strict=True)
+    assert all(th.equal(a, b) for a, b in pairs), "keeping averages changed training"
+
+    module.load_actor_average(plain, module.average_path(tmp_path, 60), 0.001)
+    slow = th.load(module.average_path(tmp_path, 60), weights_only=True)["averages"][0.001]
+    for target, average in zip(plain.policy.actor_target.parameters(), slow, strict=True):
+        assert th.equal(target, average)
+    assert not all(th.equal(a, b) for a, b in zip(slow, model.policy.actor.parameters(), strict=True)), (
+        "a slow average lags the actor"
+    )
+    with pytest.raises(ValueError, match=r"no actor average at rate 0\.5; it has \[0\.001, 0\.005\]"):
+        module.load_actor_average(plain, module.average_path(tmp_path, 60), 0.5)
