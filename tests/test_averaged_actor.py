@@ -14,11 +14,11 @@ from sb3_comm.evaluation import evaluate_team
 SMALL = {"net_arch": [16, 16]}
 
 
-def _team(averaged: bool, method: str = "TCG") -> CommDDPG:
+def _team(averaged: bool, method: str = "TCG", **policy_kwargs) -> CommDDPG:
     env = make_comm_vec_env("BlindSoccer-v0", n_envs=2, seed=0)
     return CommDDPG(
         method, env, learning_starts=40, batch_size=16, seed=0, device="cpu",
-        policy_kwargs={**SMALL, "averaged_actor": averaged},
+        policy_kwargs={**SMALL, "averaged_actor": averaged, **policy_kwargs},
     )  # fmt: skip
 
 
@@ -87,3 +87,63 @@ def test_the_option_leaves_training_and_exploration_as_they_are(method: str) -> 
 def test_a_non_boolean_averaged_actor_is_a_clear_error() -> None:
     with pytest.raises(TypeError, match=r"policy_kwargs\['averaged_actor'\] must be True or False, got 1"):
         HybridDDPG("MlpPolicy", "HFOMoveToBall-v0", policy_kwargs={"averaged_actor": 1}, device="cpu")
+
+
+def test_actor_average_tau_keeps_a_separate_average_that_the_team_plays_and_saves(tmp_path) -> None:
+    """``actor_average_tau``: an average of the actor of its own rate, one lerp per actor update,
+    played by ``averaged_actor``; the target actor (the critic's bootstrap) stays DDPG's."""
+    tau = 0.02
+    model = _team(True, "TCG", actor_average_tau=tau)
+    policy = model.policy
+    assert policy.actor_average is not None
+    expected = [p.clone() for p in policy.actor.parameters()]
+    seen = [0]  # updates folded into `expected`
+
+    def record(_locals, _globals) -> bool:  # after each step: the actor of the updates so far
+        nonlocal expected
+        if model._n_updates > seen[0]:  # one update per step (train_freq=1, gradient_steps=1)
+            assert model._n_updates == seen[0] + 1
+            expected = [e + tau * (p - e) for e, p in zip(expected, policy.actor.parameters(), strict=True)]
+            seen[0] = model._n_updates
+        return True
+
+    model.learn(120, callback=record)
+    record(None, None)  # the update after the last step
+    assert seen[0] == model._n_updates > 0
+    for average, hand in zip(policy.actor_average.parameters(), expected, strict=True):
+        th.testing.assert_close(average, hand, rtol=1e-5, atol=1e-6)
+    targets = list(policy.actor_target.parameters())
+    assert not all(th.equal(a, t) for a, t in zip(policy.actor_average.parameters(), targets, strict=True))
+
+    obs = model.replay_buffer.sample(8).observations.reshape(8, -1)
+    with th.no_grad():
+        played = policy._predict(obs)
+        message = policy.comm_layout.action_message_slice
+        outputs = policy.bound_outputs(policy.actor_average(obs.reshape(8, *policy.observation_space.shape)))
+        th.testing.assert_close(played, policy.scaled_actions(obs, averaged=True))
+        assert not th.allclose(played[..., message], policy.scaled_actions(obs)[..., message])
+    assert outputs.shape[-1] == policy.actor_out_dim
+
+    model.save(tmp_path / "model.zip")
+    loaded = CommDDPG.load(tmp_path / "model.zip", device="cpu")
+    assert loaded.policy.actor_average_tau == tau
+    for a, b in zip(loaded.policy.actor_average.parameters(), policy.actor_average.parameters(), strict=True):
+        assert th.equal(a, b)
+    with th.no_grad():
+        th.testing.assert_close(loaded.policy._predict(obs), played)
+
+
+def test_a_separate_average_leaves_training_as_it_is() -> None:
+    plain = _team(False, "GSN")  # built, then trained: the seed also sets numpy's global generator
+    plain.learn(160)
+    averaged = _team(False, "GSN", actor_average_tau=0.001)
+    averaged.learn(160)
+    state = averaged.policy.state_dict()
+    for key, value in plain.policy.state_dict().items():
+        assert th.equal(value, state[key]), key
+
+
+@pytest.mark.parametrize("bad", [0.0, -0.1, 1.5, "0.01"])
+def test_a_bad_actor_average_tau_is_a_clear_error(bad) -> None:
+    with pytest.raises((TypeError, ValueError), match=r"actor_average_tau"):
+        HybridDDPG("MlpPolicy", "HFOMoveToBall-v0", policy_kwargs={"actor_average_tau": bad}, device="cpu")

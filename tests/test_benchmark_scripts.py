@@ -385,3 +385,35 @@ def test_actor_averages_at_ddpgs_rate_equal_the_target_actor_and_leave_training_
     )
     with pytest.raises(ValueError, match=r"no actor average at rate 0\.5; it has \[0\.001, 0\.005\]"):
         module.load_actor_average(plain, module.average_path(tmp_path, 60), 0.5)
+
+
+def test_the_benchmarks_actor_averages_are_the_policys_actor_average(tmp_path):
+    """What ``solve.py --actor-averages TAU`` measured is what ``policy_kwargs={"actor_average_tau":
+    TAU}`` plays: the callback's average at a save is the policy's ``actor_average``, bit for bit."""
+    import torch as th
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from sb3_comm import CommDDPG, make_comm_vec_env
+
+    module = _load(BENCHMARKS / "_actor_averages.py")
+    env = make_comm_vec_env("BlindSoccer-v0", n_envs=2, seed=0)
+    model = CommDDPG("GSN", env, learning_starts=10, batch_size=8, seed=0, device="cpu",
+                     policy_kwargs={"net_arch": [8, 8], "actor_average_tau": 0.01})  # fmt: skip
+
+    class AveragesAtSaves(BaseCallback):
+        def __init__(self) -> None:
+            super().__init__()
+            self.saved: dict[int, list[th.Tensor]] = {}
+
+        def _on_step(self) -> bool:
+            if self.n_calls % 10 == 0:
+                average = self.model.policy.actor_average
+                self.saved[self.num_timesteps] = [p.clone() for p in average.parameters()]
+            return True
+
+    policy_averages = AveragesAtSaves()
+    model.learn(60, callback=[policy_averages, module.ActorAveragesCallback([0.01], 20, tmp_path)])
+    assert sorted(policy_averages.saved) == [20, 40, 60]
+    for step, saved in policy_averages.saved.items():
+        kept = th.load(module.average_path(tmp_path, step), weights_only=True)["averages"][0.01]
+        assert all(th.equal(a, b) for a, b in zip(kept, saved, strict=True)), step

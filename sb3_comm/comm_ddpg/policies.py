@@ -51,6 +51,8 @@ class CommPolicy(HybridPolicy):
     :param averaged_actor: the team plays the target actor, the actor's Polyak average, outside
         training (see :class:`HybridPolicy`); the messages of RIAL and TCG, actor outputs, then come
         from it too, a GSN's messages from the GSN as always.
+    :param actor_average_tau: the rate of that average (None: the target actor's, ``tau``; see
+        :class:`HybridPolicy`).
     :param gsn_net_arch: hidden widths of the GSN message extractor ``M``.
     :param gsn_reward_net_arch: hidden widths of the GSN reward model ``R``.
     :param gsn_message_activation: ``"tanh"`` or ``"linear"`` (see the GSN).
@@ -95,6 +97,7 @@ class CommPolicy(HybridPolicy):
         critic_layer_norm: bool = False,
         actor_guard: bool = False,
         averaged_actor: bool = False,
+        actor_average_tau: float | None = None,
         gsn_net_arch: list[int] | None = None,
         gsn_reward_net_arch: list[int] | None = None,
         gsn_message_activation: str = "tanh",
@@ -152,6 +155,7 @@ class CommPolicy(HybridPolicy):
             critic_layer_norm=critic_layer_norm,
             actor_guard=actor_guard,
             averaged_actor=averaged_actor,
+            actor_average_tau=actor_average_tau,
             optimizer_class=optimizer_class,
             optimizer_kwargs=optimizer_kwargs,
         )
@@ -234,7 +238,7 @@ class CommPolicy(HybridPolicy):
         """The team's full action rows ``[environment action | message]`` in scaled units, from
         the actor or (``averaged``) the target actor; see :meth:`HybridPolicy.scaled_actions`."""
         obs = observation.reshape(observation.shape[0], *self.observation_space.shape)  # type: ignore[union-attr, misc]
-        actions = self.assemble_actions(obs, self.actor_outputs(obs, target=averaged)).clamp(-1.0, 1.0)
+        actions = self.assemble_actions(obs, self.played_outputs(obs, averaged)).clamp(-1.0, 1.0)
         return actions.reshape(observation.shape[0], *self.action_space.shape)  # type: ignore[union-attr]
 
     def _trained_submodules(self) -> list[nn.Module]:

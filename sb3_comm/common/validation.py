@@ -297,6 +297,7 @@ POLICY_KWARGS: dict[str, Check] = {
     "critic_layer_norm": Flag(),
     "actor_guard": Flag(),
     "averaged_actor": Flag(),
+    "actor_average_tau": Range(0.0, 1.0, low_open=True, special=(None,), hint="None: the target actor"),
 }
 """What the checked entries of ``policy_kwargs`` accept (others are left to the policy)."""
 

@@ -444,6 +444,7 @@ class HybridDDPG(TD3):
 
             # soft update, θ' ← θ' + τ (θ − θ'), all tensors at once
             th._foreach_lerp_(targets, sources, self.tau)
+            policy.update_actor_average()
 
         if gradient_steps > 0:  # the agent's own update, without the method's extra networks
             log.add("time/agent_update_ms", 1000.0 * (time.perf_counter() - began), count=gradient_steps)

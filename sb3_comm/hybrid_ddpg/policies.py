@@ -67,6 +67,10 @@ class HybridPolicy(BasePolicy):
         of the actor's deepest dips after learning and plays the same final team, and passes 17
         of 20 seeds against the actor's 16 (15 of the 16 seeds it was not found on: not a default;
         ``benchmarks/results/checkpoint_level_defaults_bs_gsn_20seeds_averaged_actor.md``).
+    :param actor_average_tau: the rate of the average that ``averaged_actor`` plays. None: the
+        target actor (rate ``tau``). A number in (0, 1]: a separate average of the actor,
+        ``actor_average``, kept at that rate after every actor update (saved with the model;
+        training is unchanged, the average is only played).
     :param optimizer_class: optimizer of actor and critic.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
@@ -89,9 +93,16 @@ class HybridPolicy(BasePolicy):
         critic_layer_norm: bool = False,
         actor_guard: bool = False,
         averaged_actor: bool = False,
+        actor_average_tau: float | None = None,
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
+        if actor_average_tau is not None and not 0.0 < float(actor_average_tau) <= 1.0:
+            raise ValueError(
+                f"actor_average_tau must be None (the target actor) or a number in (0, 1]; "
+                f"got {actor_average_tau!r}"
+            )
+        self.actor_average_tau = None if actor_average_tau is None else float(actor_average_tau)
         if score_gradient not in SCORE_GRADIENTS:
             raise ValueError(f"score_gradient must be one of {list(SCORE_GRADIENTS)}, got {score_gradient!r}")
         self.score_gradient = score_gradient
@@ -149,6 +160,12 @@ class HybridPolicy(BasePolicy):
         self.critic_target.load_state_dict(self.critic.state_dict())
         self.actor_target.requires_grad_(False)
         self.critic_target.requires_grad_(False)
+        self.actor_average: nn.Module | None = None
+        if self.actor_average_tau is not None:  # built without drawing: the seeding stays as it was
+            with th.random.fork_rng(devices=[]):
+                self.actor_average = self.make_actor()
+            self.actor_average.load_state_dict(self.actor.state_dict())
+            self.actor_average.requires_grad_(False)
         self.actor.optimizer = self.make_optimizer(self.actor, lr_schedule(1))  # type: ignore[assignment]
         self.critic.optimizer = self.make_optimizer(self.critic, lr_schedule(1))  # type: ignore[assignment]
 
@@ -180,6 +197,28 @@ class HybridPolicy(BasePolicy):
         """Bounded actor outputs ``(..., actor_out_dim)``."""
         actor = self.actor_target if target else self.actor
         return self.bound_outputs(actor(obs))
+
+    def played_outputs(self, obs: th.Tensor, averaged: bool = False) -> th.Tensor:
+        """Bounded outputs of the actor, or (``averaged``) of the average the policy plays: the
+        separate ``actor_average`` where ``actor_average_tau`` is set, else the target actor."""
+        if not averaged:
+            return self.actor_outputs(obs)
+        average = self.actor_target if self.actor_average is None else self.actor_average
+        return self.bound_outputs(average(obs))
+
+    def update_actor_average(self) -> None:
+        """``θ̄ ← θ̄ + τ̄ (θ − θ̄)``: the separate average one step towards the actor (no-op without
+        ``actor_average_tau``); the algorithm calls it after every actor update."""
+        if self.actor_average is None:
+            return
+        pairs = self.__dict__.get("_average_pairs")
+        if pairs is None:
+            pairs = self.__dict__["_average_pairs"] = (
+                list(self.actor_average.parameters()),
+                list(self.actor.parameters()),
+            )
+        with th.no_grad():
+            th._foreach_lerp_(pairs[0], pairs[1], self.actor_average_tau)
 
     def critic_value(self, critic: nn.Module, x: th.Tensor) -> th.Tensor:
         """One critic's output on ``[obs | actions]`` rows: ``(B, 1)`` as in SB3."""
@@ -289,12 +328,13 @@ class HybridPolicy(BasePolicy):
 
     def scaled_actions(self, observation: th.Tensor, averaged: bool = False) -> th.Tensor:
         """Actions in SB3's scaled units ``[-1, 1]`` of the actor, or of its Polyak average (the
-        target actor) where ``averaged``. Exploration during training acts on the actor's.
+        target actor, or ``actor_average``; see :meth:`played_outputs`) where ``averaged``.
+        Exploration during training acts on the actor's.
 
         :param observation: a batch of observations.
-        :param averaged: use the target actor.
+        :param averaged: use the average.
         """
-        return self.actor_outputs(observation, target=averaged).clamp(-1.0, 1.0)
+        return self.played_outputs(observation, averaged).clamp(-1.0, 1.0)
 
     def observation_agents(self) -> tuple[str, ...] | None:
         """Names of the agent rows of an observation, for error messages (None: one agent)."""
@@ -357,6 +397,7 @@ class HybridPolicy(BasePolicy):
             critic_layer_norm=self.critic_layer_norm,
             actor_guard=self.actor_guard,
             averaged_actor=self.averaged_actor,
+            actor_average_tau=self.actor_average_tau,
             lr_schedule=self._dummy_schedule,
             optimizer_class=self.optimizer_class,
             optimizer_kwargs=self.optimizer_kwargs,
