@@ -365,6 +365,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         "method": model.method,
         "ablation": args.ablation,
         "averaged_actor": bool(model.policy.averaged_actor),
+        "actor_average_tau": getattr(model.policy, "actor_average_tau", None),
         **result.summary(),
     }
     print(json.dumps(report, indent=2))
@@ -588,7 +589,8 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument(
         "--averaged-actor",
         action="store_true",
-        help="play the model's target actor, the actor's Polyak average (policy_kwargs averaged_actor)",
+        help="play the actor's Polyak average (policy_kwargs averaged_actor): the model's actor_average "
+        "where it keeps one (actor_average_tau), else its target actor",
     )
     evaluate.add_argument(
         "--projector",

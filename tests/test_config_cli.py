@@ -230,4 +230,5 @@ def test_cli_evaluate_plays_the_averaged_actor_when_asked(tmp_path, capsys) -> N
         assert main(command + flag) == 0
         reports.append(json.loads(capsys.readouterr().out))
     assert [r["averaged_actor"] for r in reports] == [False, True]
+    assert reports[1]["actor_average_tau"] is None  # the target actor played, no separate average
     assert reports[0]["agent_mean_returns"] != reports[1]["agent_mean_returns"]
