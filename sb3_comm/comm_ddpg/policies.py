@@ -236,7 +236,8 @@ class CommPolicy(HybridPolicy):
 
     def scaled_actions(self, observation: th.Tensor, averaged: bool = False) -> th.Tensor:
         """The team's full action rows ``[environment action | message]`` in scaled units, from
-        the actor or (``averaged``) the target actor; see :meth:`HybridPolicy.scaled_actions`."""
+        the actor or (``averaged``) its average, the target actor or ``actor_average``; see
+        :meth:`HybridPolicy.played_outputs`."""
         obs = observation.reshape(observation.shape[0], *self.observation_space.shape)  # type: ignore[union-attr, misc]
         actions = self.assemble_actions(obs, self.played_outputs(obs, averaged)).clamp(-1.0, 1.0)
         return actions.reshape(observation.shape[0], *self.action_space.shape)  # type: ignore[union-attr]
