@@ -28,6 +28,8 @@ from typing import Any
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 
+from sb3_comm.common.files import atomic_path
+
 __all__ = ["ActorAveragesCallback", "average_path", "load_actor_average"]
 
 
@@ -57,6 +59,7 @@ class ActorAveragesCallback(BaseCallback):
         self.run_dir = Path(run_dir)
         self.sources: list[th.Tensor] = []
         self.averages: dict[float, list[th.Tensor]] = {}
+        self.every = 1  # calls between saves, from save_freq and the number of games at the start
 
     def _on_training_start(self) -> None:
         self.sources = [p.detach() for p in self.model.policy.actor.parameters()]
@@ -76,13 +79,8 @@ class ActorAveragesCallback(BaseCallback):
 
     def _save(self, path: Path) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
-        state = {
-            "step": self.num_timesteps,
-            "averages": {tau: [a.clone() for a in average] for tau, average in self.averages.items()},
-        }
-        tmp = path.with_suffix(".tmp")
-        th.save(state, tmp)
-        tmp.replace(path)
+        with atomic_path(path) as tmp:  # th.save writes the tensors' values: no copy needed
+            th.save({"step": self.num_timesteps, "averages": self.averages}, tmp)
 
 
 def load_actor_average(model: Any, path: str | Path, tau: float) -> None:

@@ -10,6 +10,8 @@ from types import ModuleType
 
 import numpy as np
 import pytest
+import torch
+from stable_baselines3.common.callbacks import BaseCallback
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 SCRIPTS = sorted(path for path in BENCHMARKS.glob("*.py") if not path.name.startswith("_"))
@@ -329,27 +331,31 @@ def test_averaged_actor_pairs_the_two_players_game_by_game():
         module.paired_difference(actor, actor[:3])
 
 
+class _ParametersAtSaves(BaseCallback):
+    """Copies of one of the policy's networks (``module``) every 10 calls, by step: what a
+    checkpoint or the actor-averages file saved at that step is compared with."""
+
+    def __init__(self, module: str) -> None:
+        super().__init__()
+        self.module = module
+        self.saved: dict[int, list[torch.Tensor]] = {}
+
+    def _on_step(self) -> bool:
+        if self.n_calls % 10 == 0:
+            network = getattr(self.model.policy, self.module)
+            self.saved[self.num_timesteps] = [p.clone() for p in network.parameters()]
+        return True
+
+
 def test_actor_averages_at_ddpgs_rate_equal_the_target_actor_and_leave_training_unchanged(tmp_path):
     """``solve.py --actor-averages``: an average kept at DDPG's own rate ``tau`` is the target actor
     of the checkpoint saved at the same step, bit for bit; a slower one lags it; training with the
     callback gives the same actor as without; a rate the file lacks is a clear error."""
     import torch as th
-    from stable_baselines3.common.callbacks import BaseCallback
 
     from sb3_comm import CommDDPG, make_comm_vec_env
 
     module = _load(BENCHMARKS / "_actor_averages.py")
-
-    class TargetsAtSaves(BaseCallback):  # what a checkpoint saved at this step holds
-        def __init__(self) -> None:
-            super().__init__()
-            self.saved: dict[int, list[th.Tensor]] = {}
-
-        def _on_step(self) -> bool:
-            if self.n_calls % 10 == 0:
-                target = self.model.policy.actor_target
-                self.saved[self.num_timesteps] = [p.clone() for p in target.parameters()]
-            return True
 
     def team() -> CommDDPG:
         env = make_comm_vec_env("BlindSoccer-v0", n_envs=2, seed=0)
@@ -361,7 +367,7 @@ def test_actor_averages_at_ddpgs_rate_equal_the_target_actor_and_leave_training_
     with pytest.raises(ValueError, match="save_freq > 0"):
         module.ActorAveragesCallback([0.01], 0, tmp_path)
 
-    model, targets = team(), TargetsAtSaves()
+    model, targets = team(), _ParametersAtSaves("actor_target")  # what a checkpoint then holds
     model.learn(60, callback=[targets, module.ActorAveragesCallback([model.tau, 0.001], 20, tmp_path)])
     assert sorted(targets.saved) == [20, 40, 60]
     for step, saved in targets.saved.items():
@@ -391,7 +397,6 @@ def test_the_benchmarks_actor_averages_are_the_policys_actor_average(tmp_path):
     """What ``solve.py --actor-averages TAU`` measured is what ``policy_kwargs={"actor_average_tau":
     TAU}`` plays: the callback's average at a save is the policy's ``actor_average``, bit for bit."""
     import torch as th
-    from stable_baselines3.common.callbacks import BaseCallback
 
     from sb3_comm import CommDDPG, make_comm_vec_env
 
@@ -400,18 +405,7 @@ def test_the_benchmarks_actor_averages_are_the_policys_actor_average(tmp_path):
     model = CommDDPG("GSN", env, learning_starts=10, batch_size=8, seed=0, device="cpu",
                      policy_kwargs={"net_arch": [8, 8], "actor_average_tau": 0.01})  # fmt: skip
 
-    class AveragesAtSaves(BaseCallback):
-        def __init__(self) -> None:
-            super().__init__()
-            self.saved: dict[int, list[th.Tensor]] = {}
-
-        def _on_step(self) -> bool:
-            if self.n_calls % 10 == 0:
-                average = self.model.policy.actor_average
-                self.saved[self.num_timesteps] = [p.clone() for p in average.parameters()]
-            return True
-
-    policy_averages = AveragesAtSaves()
+    policy_averages = _ParametersAtSaves("actor_average")
     model.learn(60, callback=[policy_averages, module.ActorAveragesCallback([0.01], 20, tmp_path)])
     assert sorted(policy_averages.saved) == [20, 40, 60]
     for step, saved in policy_averages.saved.items():
