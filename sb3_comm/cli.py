@@ -365,7 +365,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         "method": model.method,
         "ablation": args.ablation,
         "averaged_actor": bool(model.policy.averaged_actor),
-        "actor_average_tau": getattr(model.policy, "actor_average_tau", None),
+        "actor_average_tau": model.policy.actor_average_tau,
         **result.summary(),
     }
     print(json.dumps(report, indent=2))

@@ -10,7 +10,7 @@ from types import ModuleType
 
 import numpy as np
 import pytest
-import torch
+import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
@@ -338,7 +338,7 @@ class _ParametersAtSaves(BaseCallback):
     def __init__(self, module: str) -> None:
         super().__init__()
         self.module = module
-        self.saved: dict[int, list[torch.Tensor]] = {}
+        self.saved: dict[int, list[th.Tensor]] = {}
 
     def _on_step(self) -> bool:
         if self.n_calls % 10 == 0:
@@ -351,8 +351,6 @@ def test_actor_averages_at_ddpgs_rate_equal_the_target_actor_and_leave_training_
     """``solve.py --actor-averages``: an average kept at DDPG's own rate ``tau`` is the target actor
     of the checkpoint saved at the same step, bit for bit; a slower one lags it; training with the
     callback gives the same actor as without; a rate the file lacks is a clear error."""
-    import torch as th
-
     from sb3_comm import CommDDPG, make_comm_vec_env
 
     module = _load(BENCHMARKS / "_actor_averages.py")
@@ -396,8 +394,6 @@ def test_actor_averages_at_ddpgs_rate_equal_the_target_actor_and_leave_training_
 def test_the_benchmarks_actor_averages_are_the_policys_actor_average(tmp_path):
     """What ``solve.py --actor-averages TAU`` measured is what ``policy_kwargs={"actor_average_tau":
     TAU}`` plays: the callback's average at a save is the policy's ``actor_average``, bit for bit."""
-    import torch as th
-
     from sb3_comm import CommDDPG, make_comm_vec_env
 
     module = _load(BENCHMARKS / "_actor_averages.py")
