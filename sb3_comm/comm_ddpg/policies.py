@@ -51,7 +51,8 @@ class CommPolicy(HybridPolicy):
     :param averaged_actor: the team plays the target actor, the actor's Polyak average, outside
         training (see :class:`HybridPolicy`); the messages of RIAL and TCG, actor outputs, then come
         from it too, a GSN's messages from the GSN as always.
-    :param actor_average_tau: the rate of that average (None: the target actor's, ``tau``; see
+    :param actor_average_tau: the rate of that average (None: the target actor's, ``tau``; a
+        number, or ``"auto"``: a separate average, the rate set from the run's budget; see
         :class:`HybridPolicy`).
     :param gsn_net_arch: hidden widths of the GSN message extractor ``M``.
     :param gsn_reward_net_arch: hidden widths of the GSN reward model ``R``.
@@ -97,7 +98,7 @@ class CommPolicy(HybridPolicy):
         critic_layer_norm: bool = False,
         actor_guard: bool = False,
         averaged_actor: bool = False,
-        actor_average_tau: float | None = None,
+        actor_average_tau: float | str | None = None,
         gsn_net_arch: list[int] | None = None,
         gsn_reward_net_arch: list[int] | None = None,
         gsn_message_activation: str = "tanh",

@@ -85,7 +85,12 @@ class Range:
         return text + (f" ({self.hint})" if self.hint else "")
 
     def _is_special(self, value: Any) -> bool:
-        return any(value is s or (_is_whole(value) and _is_whole(s) and value == s) for s in self.special)
+        return any(
+            value is s
+            or (_is_whole(value) and _is_whole(s) and value == s)
+            or (isinstance(value, str) and isinstance(s, str) and value == s)
+            for s in self.special
+        )
 
     def __call__(self, name: str, value: Any) -> None:
         if self._is_special(value):
@@ -297,7 +302,13 @@ POLICY_KWARGS: dict[str, Check] = {
     "critic_layer_norm": Flag(),
     "actor_guard": Flag(),
     "averaged_actor": Flag(),
-    "actor_average_tau": Range(0.0, 1.0, low_open=True, special=(None,), hint="None: the target actor"),
+    "actor_average_tau": Range(
+        0.0,
+        1.0,
+        low_open=True,
+        special=(None, "auto"),
+        hint="None: the target actor; 'auto': set from the run's budget, 10 / its actor updates",
+    ),
 }
 """What the checked entries of ``policy_kwargs`` accept (others are left to the policy)."""
 

@@ -35,7 +35,14 @@ from stable_baselines3 import TD3
 from stable_baselines3.common.noise import ActionNoise
 from stable_baselines3.common.policies import BasePolicy
 from stable_baselines3.common.save_util import load_from_pkl
-from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule, TrainFreq
+from stable_baselines3.common.type_aliases import (
+    GymEnv,
+    MaybeCallback,
+    RolloutReturn,
+    Schedule,
+    TrainFreq,
+    TrainFrequencyUnit,
+)
 from stable_baselines3.common.utils import (
     FloatSchedule,
     LinearSchedule,
@@ -49,7 +56,7 @@ from sb3_comm.common.layout import HybridActionLayout
 from sb3_comm.common.networks import gradient_step, inverting_gradients
 from sb3_comm.common.train_log import TrainLog
 from sb3_comm.common.validation import HYPERPARAMETERS, Range, check_hyperparameters
-from sb3_comm.hybrid_ddpg.policies import HybridPolicy
+from sb3_comm.hybrid_ddpg.policies import ACTOR_AVERAGE_AUTO, HybridPolicy, auto_actor_average_rate
 
 __all__ = [
     "LOG_POINTS",
@@ -291,6 +298,8 @@ class HybridDDPG(TD3):
         self.log_interval_steps = 0
         """Environment steps between two logged training points (0: none); set by ``learn``."""
         self._next_log_step = 0
+        self._rollout_steps = 0
+        """Environment steps of the last rollout (all games together)."""
 
     # ------------------------------------------------------------------- public counters --
     @property
@@ -375,6 +384,34 @@ class HybridDDPG(TD3):
         return self.policy.unscale_action(buffer_action), buffer_action
 
     # ------------------------------------------------------------------------------ train --
+    def collect_rollouts(self, *args: Any, **kwargs: Any) -> RolloutReturn:
+        """SB3's, remembering how many environment steps the rollout took (see
+        :meth:`planned_actor_updates`)."""
+        rollout = super().collect_rollouts(*args, **kwargs)
+        self._rollout_steps = rollout.episode_timesteps
+        return rollout
+
+    def planned_actor_updates(self, gradient_steps: int | None = None) -> float:
+        """The actor updates a run of this ``learn`` budget makes, counted from its first step: the
+        budget (``total_timesteps``, and the steps before it where ``reset_num_timesteps=False``
+        continues a run, so that a resumed run plans as the uninterrupted one) times the updates
+        per environment step, ``gradient_steps / (train_freq × n_envs) / policy_delay``.
+
+        :param gradient_steps: the updates after the last rollout, which count where ``train_freq``
+            counts episodes: the updates per step are then those of the last rollout.
+        """
+        frequency = self.train_freq
+        assert isinstance(frequency, TrainFreq)
+        if frequency.unit == TrainFrequencyUnit.STEP:
+            collected = frequency.frequency * self.n_envs
+            updates = self.gradient_steps if self.gradient_steps >= 0 else collected
+        else:
+            collected = max(self._rollout_steps, 1)
+            updates = self.gradient_steps if gradient_steps is None else gradient_steps
+            if updates < 0:
+                updates = collected
+        return self._total_timesteps * updates / collected / self.policy_delay
+
     def train(self, gradient_steps: int, batch_size: int = 100) -> None:
         """Critic and actor updates, as in the ICLR 2016 agent (plus the team's message hooks).
 
@@ -394,6 +431,9 @@ class HybridDDPG(TD3):
         if self.uses_mc_returns:
             log.add("train/mc_mixing", mc_mixing)
         policy = self.policy
+        if policy.actor_average_tau == ACTOR_AVERAGE_AUTO:
+            policy.actor_average_rate = auto_actor_average_rate(self.planned_actor_updates(gradient_steps))
+            log.add("train/actor_average_rate", policy.actor_average_rate)
         sources, targets = self._soft_update_pairs()
         for _ in range(gradient_steps):
             self._n_updates += 1

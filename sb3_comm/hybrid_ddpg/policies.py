@@ -28,10 +28,41 @@ from sb3_comm.common.layout import HybridActionLayout
 from sb3_comm.common.networks import mlp
 from sb3_comm.common.validation import SCORE_GRADIENTS, check_observation
 
-__all__ = ["SCORE_GRADIENTS", "SWITCH_MARGIN", "HybridPolicy"]
+__all__ = [
+    "ACTOR_AVERAGE_AUTO",
+    "ACTOR_AVERAGE_SPAN",
+    "SCORE_GRADIENTS",
+    "SWITCH_MARGIN",
+    "HybridPolicy",
+    "auto_actor_average_rate",
+]
 
 SWITCH_MARGIN = 0.05
 """How far above the other scores an alternative's score is put when the critic rates it."""
+
+ACTOR_AVERAGE_AUTO = "auto"
+"""``actor_average_tau="auto"``: the rate of the actor's average is set from the run's budget."""
+
+ACTOR_AVERAGE_SPAN = 10.0
+"""With ``actor_average_tau="auto"`` the rate is ``ACTOR_AVERAGE_SPAN / U`` for a run of ``U``
+actor updates: the average's mean age, ``1/τ̄`` updates, is a tenth of the run."""
+
+
+def auto_actor_average_rate(actor_updates: float) -> float:
+    """The rate ``actor_average_tau="auto"`` gives a run of ``actor_updates`` actor updates:
+    ``ACTOR_AVERAGE_SPAN / actor_updates`` to two significant figures, at most 1 (the actor itself).
+
+    Two figures make the rate a plain number in the logs, the same for runs whose budgets differ by
+    a few steps, and equal to the rates measured by hand: 0.0002 for Blind Soccer's 50,000 updates
+    (800,000 steps of 16 games), 0.00053 for Guess My Number's 18,750 and 0.00027 for
+    simple_reference's 37,500 (README, "Every seed, every evaluation").
+
+    >>> auto_actor_average_rate(50_000), auto_actor_average_rate(18_750), auto_actor_average_rate(5)
+    (0.0002, 0.00053, 1.0)
+    """
+    if not actor_updates > ACTOR_AVERAGE_SPAN:  # also NaN: no budget to spread over
+        return 1.0
+    return float(f"{ACTOR_AVERAGE_SPAN / actor_updates:.2g}")
 
 
 class HybridPolicy(BasePolicy):
@@ -70,11 +101,14 @@ class HybridPolicy(BasePolicy):
     :param actor_average_tau: the rate of the average that ``averaged_actor`` plays. None: the
         target actor (rate ``tau``). A number in (0, 1]: a separate average of the actor,
         ``actor_average``, kept at that rate after every actor update (saved with the model;
-        training is unchanged, the average is only played). The rate counts updates, not steps:
-        0.0002 spans about the last 5,000 updates, a tenth of a Blind Soccer run with 16 games,
-        where it removes the actor's dips; on a run of fewer updates it lags the actor for most
-        of the run (Guess My Number's 18,750 updates: the bar at 275,000 of 300,000 steps, the
-        actor's at 50,000–75,000; README, "Every seed, every evaluation").
+        training is unchanged, the average is only played). ``"auto"``: that separate average,
+        with the rate set when training starts from the run's budget, about 10 / (the run's actor
+        updates; see :func:`auto_actor_average_rate`), so that the average spans a tenth of any
+        run. A fixed rate counts updates, not steps: 0.0002 spans about the last 5,000 updates, a
+        tenth of a Blind Soccer run with 16 games, where it removes the actor's dips; on a run of
+        fewer updates it lags the actor for most of the run (Guess My Number's 18,750 updates: the
+        bar at 275,000 of 300,000 steps, the actor's at 50,000–75,000; at the rate ``"auto"`` gives,
+        0.00053, at 125,000; README, "Every seed, every evaluation").
     :param optimizer_class: optimizer of actor and critic.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
@@ -97,16 +131,26 @@ class HybridPolicy(BasePolicy):
         critic_layer_norm: bool = False,
         actor_guard: bool = False,
         averaged_actor: bool = False,
-        actor_average_tau: float | None = None,
+        actor_average_tau: float | str | None = None,
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
-        if actor_average_tau is not None and not 0.0 < float(actor_average_tau) <= 1.0:
+        auto = isinstance(actor_average_tau, str) and actor_average_tau == ACTOR_AVERAGE_AUTO
+        if not (
+            actor_average_tau is None
+            or auto
+            or (not isinstance(actor_average_tau, str) and 0.0 < float(actor_average_tau) <= 1.0)
+        ):
             raise ValueError(
-                f"actor_average_tau must be None (the target actor) or a number in (0, 1]; "
-                f"got {actor_average_tau!r}"
+                f"actor_average_tau must be None (the target actor), {ACTOR_AVERAGE_AUTO!r} (set from the "
+                f"run's budget) or a number in (0, 1]; got {actor_average_tau!r}"
             )
-        self.actor_average_tau = None if actor_average_tau is None else float(actor_average_tau)
+        self.actor_average_tau: float | str | None = (
+            actor_average_tau if actor_average_tau is None or auto else float(actor_average_tau)
+        )
+        """The setting: None, ``"auto"`` or a fixed rate."""
+        self.actor_average_rate: float | None = None if auto else self.actor_average_tau  # type: ignore[assignment]
+        """The rate :meth:`update_actor_average` uses (``"auto"``: set by the algorithm as it trains)."""
         if score_gradient not in SCORE_GRADIENTS:
             raise ValueError(f"score_gradient must be one of {list(SCORE_GRADIENTS)}, got {score_gradient!r}")
         self.score_gradient = score_gradient
@@ -211,10 +255,16 @@ class HybridPolicy(BasePolicy):
         return self.bound_outputs(average(obs))
 
     def update_actor_average(self) -> None:
-        """``θ̄ ← θ̄ + τ̄ (θ − θ̄)``: the separate average one step towards the actor (no-op without
-        ``actor_average_tau``); the algorithm calls it after every actor update."""
+        """``θ̄ ← θ̄ + τ̄ (θ − θ̄)``: the separate average one step towards the actor at the rate
+        :attr:`actor_average_rate` (no-op without ``actor_average_tau``); the algorithm calls it
+        after every actor update."""
         if self.actor_average is None:
             return
+        if self.actor_average_rate is None:
+            raise RuntimeError(
+                "actor_average_tau='auto' has no rate yet: the algorithm sets actor_average_rate from the "
+                "run's budget when it trains (learn); set it before updating the average by hand"
+            )
         pairs = self.__dict__.get("_average_pairs")
         if pairs is None:
             pairs = self.__dict__["_average_pairs"] = (
@@ -222,7 +272,7 @@ class HybridPolicy(BasePolicy):
                 list(self.actor.parameters()),
             )
         with th.no_grad():
-            th._foreach_lerp_(pairs[0], pairs[1], self.actor_average_tau)
+            th._foreach_lerp_(pairs[0], pairs[1], self.actor_average_rate)
 
     def critic_value(self, critic: nn.Module, x: th.Tensor) -> th.Tensor:
         """One critic's output on ``[obs | actions]`` rows: ``(B, 1)`` as in SB3."""
