@@ -50,9 +50,14 @@ def main() -> None:
     digests = {}
     for method in args.methods:
         env = make_comm_vec_env(args.env, n_envs=args.n_envs, seed=args.seed)
-        # GSN pinned to the paper's reward model, so that digests compare with those made before
-        # CommDDPG's GSN default became gsn_reward_sees_teammate=True
-        kwargs = {"net_arch": [256, 256], **({"gsn_reward_sees_teammate": False} if method == "GSN" else {})}
+        # GSN pinned to the paper's reward model and every method to its actor playing, so that
+        # digests compare with those made before CommDDPG's defaults became
+        # gsn_reward_sees_teammate=True and averaged_actor=True (whose average adds parameters)
+        kwargs = {
+            "net_arch": [256, 256],
+            "averaged_actor": False,
+            **({"gsn_reward_sees_teammate": False} if method == "GSN" else {}),
+        }
         model = CommDDPG(
             method, env, policy_kwargs=kwargs, batch_size=64, learning_starts=500,
             mc_mixing=0.5, seed=args.seed, device="cpu",

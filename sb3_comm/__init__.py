@@ -17,6 +17,7 @@ and on top :mod:`~sb3_comm.experiments`, :mod:`~sb3_comm.analysis`, :mod:`~sb3_c
 """
 
 from sb3_comm.comm_ddpg import (
+    AVERAGED_ACTOR,
     GSN_REWARD_SEES_TEAMMATE,
     METHODS,
     OWN_REWARD_METHODS,
@@ -37,6 +38,7 @@ register_envs()
 __version__ = "0.2.0"
 
 __all__ = [
+    "AVERAGED_ACTOR",
     "GSN_REWARD_SEES_TEAMMATE",
     "METHODS",
     "OWN_REWARD_METHODS",

@@ -200,6 +200,9 @@ def _steer_receiver_by_message(model: CommDDPG) -> None:
         out.weight[0, :2] = th.tensor([1.0, -1.0])  # dash score grows with m[0]
         out.weight[1, :2] = th.tensor([-1.0, 1.0])  # turn score falls with it
         out.bias[2] = -1.0  # never kick
+    average = model.policy.actor_average  # the default team plays its actor's average: steer it too
+    if average is not None:
+        average.load_state_dict(model.policy.actor.state_dict())
 
 
 def test_interventional_cic_known_answer_on_a_steered_receiver(gsn_rollout: Rollout) -> None:

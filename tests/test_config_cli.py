@@ -108,7 +108,9 @@ def test_cli_train_then_evaluate(tmp_path, capsys) -> None:
     assert main(["evaluate", str(run / "model.zip"), "--episodes", "2", "--ablation", "zero"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["env"] == "GuessMyNumber-v0" and report["method"] == "GSN" and report["n_episodes"] == 2
-    assert report["averaged_actor"] is False
+    # -params policy_kwargs=... replaces the file's policy_kwargs whole (as rl-zoo3 does), its
+    # averaged_actor: false pin included: the team plays the constructor's default, the average
+    assert report["averaged_actor"] is True and report["actor_average_tau"] == "auto"
 
     projector = tmp_path / "projector"
     assert main(["evaluate", str(run / "model.zip"), "--episodes", "2", "--projector", str(projector)]) == 0
@@ -218,7 +220,10 @@ def test_cli_evaluate_plays_the_averaged_actor_when_asked(tmp_path, capsys) -> N
 
     from sb3_comm import CommDDPG, make_comm_vec_env
 
-    model = CommDDPG("TCG", make_comm_vec_env("GuessMyNumber-v0", n_envs=2, seed=0), seed=0, device="cpu")
+    env = make_comm_vec_env("GuessMyNumber-v0", n_envs=2, seed=0)
+    model = CommDDPG(
+        "TCG", env, seed=0, device="cpu", policy_kwargs={"averaged_actor": False}
+    )  # plays its actor
     last = model.policy.actor_target.nets[0][-1]
     with th.no_grad():
         last.weight.zero_()

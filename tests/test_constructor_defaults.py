@@ -1,7 +1,8 @@
 """CommDDPG's constructor defaults: the discount (0.95 since session 19), the batch size (128
-since session 23) and an actor learning rate that decays linearly to 0 (since session 25): what a
-new model uses, what the replay's Monte-Carlo returns and GSN's regression use, and that a file
-saved with other settings keeps them."""
+since session 23), an actor learning rate that decays linearly to 0 (since session 25) and the
+actor's average over the run's last tenth playing (since session 31): what a new model uses, what
+the replay's Monte-Carlo returns and GSN's regression use, and that a file saved with other
+settings keeps them."""
 
 from __future__ import annotations
 
@@ -75,3 +76,61 @@ def test_a_new_model_decays_its_actor_rate_to_zero_and_keeps_the_others_constant
     assert model.critic.optimizer.param_groups[0]["lr"] == pytest.approx(1e-3)
     if model.gsn_callback is not None:  # GSN: the message network's own rate stays constant
         assert model.gsn_callback.lr_schedule(0.0) == pytest.approx(1e-3)
+
+
+@pytest.mark.parametrize("method", ["NONE", "RIAL", "TCG", "GSN", "GSN-MAX"])
+def test_a_new_team_plays_its_actors_average_over_the_runs_last_tenth(method: str) -> None:
+    """The default of session 31: the separate average at the rate ``"auto"``, set by ``learn``."""
+    model = CommDDPG(method, _env(), buffer_size=1000, learning_starts=20, batch_size=8, seed=0, device="cpu")
+    policy = model.policy
+    assert policy.averaged_actor is True and policy.actor_average_tau == "auto"
+    assert policy.actor_average is not None
+    model.learn(400)  # 2 games: 200 planned updates
+    assert policy.actor_average_rate == 0.05
+
+
+def test_told_otherwise_a_team_plays_what_it_is_told() -> None:
+    actor = CommDDPG("TCG", _env(), buffer_size=1000, policy_kwargs={"averaged_actor": False}, device="cpu")
+    assert actor.policy.averaged_actor is False and actor.policy.actor_average is None
+    target = CommDDPG(
+        "TCG",
+        _env(),
+        buffer_size=1000,
+        policy_kwargs={"averaged_actor": True, "actor_average_tau": None},
+        device="cpu",
+    )
+    assert target.policy.averaged_actor is True and target.policy.actor_average is None  # the target actor
+    fixed = CommDDPG(
+        "TCG", _env(), buffer_size=1000, policy_kwargs={"actor_average_tau": 0.001}, device="cpu"
+    )
+    assert fixed.policy.averaged_actor is True and fixed.policy.actor_average_rate == 0.001
+
+
+def test_the_single_agent_learner_plays_its_actor() -> None:
+    model = HybridDDPG("MlpPolicy", make_vec_env("HFOMoveToBall-v0", n_envs=1, seed=0), device="cpu")
+    assert model.policy.averaged_actor is False and model.policy.actor_average is None
+
+
+def test_a_file_saved_before_the_average_was_the_default_plays_its_actor(tmp_path) -> None:
+    """A model saved before the default existed has no such key in its policy_kwargs: it plays its
+    actor, as it did when it was measured."""
+    old = CommDDPG("GSN", _env(), buffer_size=1000, policy_kwargs={"averaged_actor": False}, device="cpu")
+    del old.policy_kwargs["averaged_actor"]  # what a file of an earlier version holds
+    old.save(tmp_path / "old.zip")
+    loaded = CommDDPG.load(tmp_path / "old.zip", env=_env(), device="cpu")
+    assert loaded.policy.averaged_actor is False and loaded.policy.actor_average is None
+    new = CommDDPG("GSN", _env(), buffer_size=1000, device="cpu")
+    new.save(tmp_path / "new.zip")
+    loaded = CommDDPG.load(tmp_path / "new.zip", env=_env(), device="cpu")
+    assert loaded.policy.averaged_actor is True and loaded.policy.actor_average_tau == "auto"
+
+
+def test_every_packaged_configuration_pins_the_actor_it_was_measured_with() -> None:
+    """The packaged results were measured with the actor playing; no packaged run may follow the
+    constructor's new default unnoticed."""
+    from sb3_comm.config import RunConfig
+
+    for method in ("NONE", "RIAL", "TCG", "GSN", "GSN-MAX"):
+        for env_id in ("BlindSoccer-v0", "GuessMyNumber-v0"):
+            config = RunConfig.load(method, env_id)
+            assert config.algorithm_kwargs()["policy_kwargs"]["averaged_actor"] is False, (method, env_id)

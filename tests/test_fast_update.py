@@ -29,7 +29,7 @@ def _plain_adam(module: th.nn.Module, fast: th.optim.Optimizer) -> th.optim.Opti
 def _reference_update(model: CommDDPG, ref, data, max_grad_norm: float, beta: float | None = None) -> None:
     """One DDPG update written out: TD target mixed with the Monte-Carlo return (weight ``beta``,
     default the model's ``mc_mixing``), critic step, actor step on -Q(s, mu(s)), soft updates
-    parameter by parameter."""
+    parameter by parameter (and of the actor's average the team plays, where it keeps one)."""
     beta = model.mc_mixing if beta is None else beta
     critic_opt = _plain_adam(ref.critic, model.policy.critic.optimizer)
     actor_opt = _plain_adam(ref.actor, model.policy.actor.optimizer)
@@ -60,6 +60,10 @@ def _reference_update(model: CommDDPG, ref, data, max_grad_norm: float, beta: fl
         for net, target_net in ((ref.critic, ref.critic_target), (ref.actor, ref.actor_target)):
             for p, p_target in zip(net.parameters(), target_net.parameters(), strict=True):
                 p_target.mul_(1.0 - model.tau).add_(p, alpha=model.tau)
+        if ref.actor_average is not None:  # the average the team plays (the default), at its rate
+            rate = ref.actor_average_rate
+            for p, p_average in zip(ref.actor.parameters(), ref.actor_average.parameters(), strict=True):
+                p_average.mul_(1.0 - rate).add_(p, alpha=rate)
 
 
 @pytest.mark.parametrize(

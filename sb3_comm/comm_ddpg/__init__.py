@@ -7,13 +7,19 @@ run one way: ``gsn`` <- ``methods`` <- ``policies`` <- ``comm_ddpg``.
 """
 
 from sb3_comm.comm_ddpg.buffers import JointReplayBuffer
-from sb3_comm.comm_ddpg.comm_ddpg import GSN_REWARD_SEES_TEAMMATE, OWN_REWARD_METHODS, CommDDPG
+from sb3_comm.comm_ddpg.comm_ddpg import (
+    AVERAGED_ACTOR,
+    GSN_REWARD_SEES_TEAMMATE,
+    OWN_REWARD_METHODS,
+    CommDDPG,
+)
 from sb3_comm.comm_ddpg.gsn import GroundedSemanticNetwork, GSNTrainingCallback
 from sb3_comm.comm_ddpg.methods import COMM_METHODS, METHODS, CommMethod
 from sb3_comm.comm_ddpg.policies import CommPolicy, GSNMAXPolicy, GSNPolicy, NonePolicy, RIALPolicy, TCGPolicy
 from sb3_comm.hybrid_ddpg import HybridDDPG, HybridPolicy
 
 __all__ = [
+    "AVERAGED_ACTOR",
     "COMM_METHODS",
     "GSN_REWARD_SEES_TEAMMATE",
     "METHODS",

@@ -94,10 +94,12 @@ class HybridPolicy(BasePolicy):
         model's play) come from the target actor, the Polyak average of the actor that DDPG keeps
         for its critic targets (rate ``tau``), instead of the actor's latest iterate. Training is
         unchanged: exploration and every update use the actor (see :meth:`scaled_actions`). Off:
-        the ICLR 2016 agent. On Blind Soccer with the constructor's defaults the average has none
-        of the actor's deepest dips after learning and plays the same final team, and passes 17
-        of 20 seeds against the actor's 16 (15 of the 16 seeds it was not found on: not a default;
-        ``benchmarks/results/checkpoint_level_defaults_bs_gsn_20seeds_averaged_actor.md``).
+        the ICLR 2016 agent. On Blind Soccer with the constructor's defaults the target actor has
+        none of the actor's deepest dips after learning and plays the same final team, and passes
+        17 of 20 seeds against the actor's 16
+        (``benchmarks/results/checkpoint_level_defaults_bs_gsn_20seeds_averaged_actor.md``); the
+        slower average of ``actor_average_tau="auto"`` passes 20 of 20 and is what a new
+        :class:`~sb3_comm.comm_ddpg.CommDDPG` plays (``sb3_comm.AVERAGED_ACTOR``).
     :param actor_average_tau: the rate of the average that ``averaged_actor`` plays. None: the
         target actor (rate ``tau``). A number in (0, 1]: a separate average of the actor,
         ``actor_average``, kept at that rate after every actor update (saved with the model;
