@@ -306,10 +306,17 @@ def _new_run(args: argparse.Namespace) -> tuple[Any, Path]:
     if args.conf is None and not _packaged(args.method, env_id):
         _check_two_agent_task(env_id)
         config = RunConfig.constructor_defaults(args.method, env_id, seed=seed).with_overrides(overrides)
+        averaged = (config.hyperparams.get("policy_kwargs") or {}).get("averaged_actor", True)
         print(
             f"No packaged configuration of {config.method} for {env_id}: CommDDPG's constructor defaults, "
             f"{config.n_envs} games, {config.n_timesteps} steps (--params, --n-envs, --timesteps or "
-            "--conf to change them)"
+            "--conf to change them); "
+            + (
+                "the team plays its actor's average over the run's last tenth "
+                "(-params 'policy_kwargs={averaged_actor: false}' plays the actor)"
+                if averaged
+                else "the team plays its actor"
+            )
         )
     else:
         config = RunConfig.load(args.method, env_id, seed=seed, path=args.conf, overrides=overrides)

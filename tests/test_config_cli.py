@@ -7,6 +7,7 @@ import json
 
 import pytest
 
+from sb3_comm import CommDDPG
 from sb3_comm.cli import main, parse_overrides
 from sb3_comm.config import CONFIG_DIR, RunConfig
 
@@ -163,7 +164,7 @@ def test_mc_mixing_may_be_a_linear_schedule(tmp_path) -> None:
 def test_gsn_learning_rate_schedule_is_applied() -> None:
     from stable_baselines3.common.utils import LinearSchedule
 
-    from sb3_comm import CommDDPG, make_comm_vec_env
+    from sb3_comm import make_comm_vec_env
 
     env = make_comm_vec_env("GuessMyNumber-v0", n_envs=2)
     model = CommDDPG(
@@ -191,8 +192,13 @@ def test_cli_trains_a_registered_task_without_packaged_configuration_with_the_de
     assert main(args) == 0
     out = capsys.readouterr().out
     assert "No packaged configuration of GSN for MPESimpleReference-v0: CommDDPG's constructor" in out
+    assert "the team plays its actor's average over the run's last tenth" in out
     run = tmp_path / "MPESimpleReference-v0" / "GSN_seed0"
     assert (run / "model.zip").is_file()
+    policy = CommDDPG.load(run / "model.zip", device="cpu").policy
+    assert policy.averaged_actor is True and policy.actor_average_tau == "auto"
+    assert main([*args[:-1], "learning_starts=50", "policy_kwargs={averaged_actor: false}"]) == 0
+    assert "; the team plays its actor\n" in capsys.readouterr().out
     entry = RunConfig.load("GSN", "MPESimpleReference-v0", path=run / "config.yml")
     assert (entry.n_envs, entry.n_timesteps, entry.hyperparams) == (2, 160, {"learning_starts": 50})
     assert len(json.loads((run / "evaluations.json").read_text())) == 2
@@ -218,7 +224,7 @@ def test_cli_evaluate_plays_the_averaged_actor_when_asked(tmp_path, capsys) -> N
     message +1, so its games differ from the actor's."""
     import torch as th
 
-    from sb3_comm import CommDDPG, make_comm_vec_env
+    from sb3_comm import make_comm_vec_env
 
     env = make_comm_vec_env("GuessMyNumber-v0", n_envs=2, seed=0)
     model = CommDDPG(
