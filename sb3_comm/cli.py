@@ -361,8 +361,8 @@ def _evaluate(args: argparse.Namespace) -> int:
     path = _model_file(args.model)
     env_id = _check_env_id(args.env or _env_of(path))
     model = _load_model(path, args.device)
-    if args.averaged_actor:  # play the actor's Polyak average (policy_kwargs averaged_actor)
-        model.policy.averaged_actor = True
+    if args.averaged_actor is not None:  # the actor's Polyak average, or the actor (default: as saved)
+        model.policy.averaged_actor = args.averaged_actor
     options = _env_kwargs_of(path, env_id)
     result = evaluate_team(
         model, env_id, n_episodes=args.episodes, seed=args.seed, ablation=args.ablation, env_kwargs=options
@@ -595,9 +595,11 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--ablation", choices=ABLATIONS, default="none")
     evaluate.add_argument(
         "--averaged-actor",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
+        default=None,
         help="play the actor's Polyak average (policy_kwargs averaged_actor): the model's actor_average "
-        "where it keeps one (actor_average_tau), else its target actor",
+        "where it keeps one (actor_average_tau), else its target actor; --no-averaged-actor plays the "
+        "actor itself (default: what the model was saved to play, for a new CommDDPG the average)",
     )
     evaluate.add_argument(
         "--projector",

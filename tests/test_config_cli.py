@@ -243,3 +243,26 @@ def test_cli_evaluate_plays_the_averaged_actor_when_asked(tmp_path, capsys) -> N
     assert [r["averaged_actor"] for r in reports] == [False, True]
     assert reports[1]["actor_average_tau"] is None  # the target actor played, no separate average
     assert reports[0]["agent_mean_returns"] != reports[1]["agent_mean_returns"]
+
+
+def test_cli_evaluate_plays_the_actor_of_a_default_team_when_asked(tmp_path, capsys) -> None:
+    """A new team plays its actor's average (the default): ``sb3-comm evaluate`` plays it as saved,
+    ``--no-averaged-actor`` plays the actor instead (here an average that always sends +1)."""
+    import torch as th
+
+    from sb3_comm import make_comm_vec_env
+
+    model = CommDDPG("TCG", make_comm_vec_env("GuessMyNumber-v0", n_envs=2, seed=0), seed=0, device="cpu")
+    last = model.policy.actor_average.nets[0][-1]
+    with th.no_grad():
+        last.weight.zero_()
+        last.bias.fill_(1.0)
+    model.save(tmp_path / "model.zip")
+    reports = []
+    for flag in ([], ["--no-averaged-actor"]):
+        command = ["evaluate", str(tmp_path / "model.zip"), "--env", "GuessMyNumber-v0", "--episodes", "2"]
+        assert main(command + flag) == 0
+        reports.append(json.loads(capsys.readouterr().out))
+    assert [r["averaged_actor"] for r in reports] == [True, False]
+    assert reports[0]["actor_average_tau"] == "auto"
+    assert reports[0]["agent_mean_returns"] != reports[1]["agent_mean_returns"]
