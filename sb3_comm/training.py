@@ -384,6 +384,9 @@ def _finish_tensorboard(
         sees_teammate = (model.policy_kwargs or {}).get("gsn_reward_sees_teammate")
         if sees_teammate is not None:
             hparams.setdefault("gsn_reward_sees_teammate", bool(sees_teammate))
+        hparams.setdefault("averaged_actor", bool(model.policy.averaged_actor))  # what plays
+        if model.policy.averaged_actor and model.policy.actor_average_rate is not None:
+            hparams.setdefault("actor_average_rate", float(model.policy.actor_average_rate))
         record_hparams(model.logger, hparams, metrics, int(model.num_timesteps))
         # the projector labels messages with the receiver's action type: hybrid actions only
         if settings.projector_episodes > 0 and model.comm_layout.channel_size and model.comm_layout.hybrid:

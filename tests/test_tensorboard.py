@@ -117,8 +117,9 @@ def _hparams(folder: Path) -> dict[str, Any]:
     ("method", "shared", "sees_teammate"), [("TCG", False, None), ("GSN", True, True), ("NONE", True, None)]
 )
 def test_hparams_show_what_a_default_chose_by_method(method, shared, sees_teammate, tmp_path: Path) -> None:
-    """A run with the constructor's defaults: the reward (TCG: each agent's own) and GSN's reward
-    model, which no configuration names, are in the HPARAMS view."""
+    """A run with the constructor's defaults: the reward (TCG: each agent's own), GSN's reward
+    model and the team that plays (the actor's average, at the rate set from the budget), which no
+    configuration names, are in the HPARAMS view."""
     tiny = {"learning_starts": 40, "batch_size": 8, "buffer_size": 500, "n_envs": 4, "n_timesteps": 80}
     config = RunConfig.constructor_defaults(method, "GuessMyNumber-v0").with_overrides(tiny)
     assert "shared_reward" not in config.hyperparams
@@ -130,6 +131,8 @@ def test_hparams_show_what_a_default_chose_by_method(method, shared, sees_teamma
         assert "gsn_reward_sees_teammate" not in hparams
     else:
         assert hparams["gsn_reward_sees_teammate"] == sees_teammate
+    assert hparams["averaged_actor"] == 1.0  # 80 steps of 4 games: 20 updates planned, rate 10 / 20
+    assert hparams["actor_average_rate"] == pytest.approx(0.5)
 
 
 def test_plain_learn_logs_every_log_interval_steps(tmp_path: Path) -> None:
