@@ -104,7 +104,7 @@ class HybridPolicy(BasePolicy):
         target actor (rate ``tau``). A number in (0, 1]: a separate average of the actor,
         ``actor_average``, kept at that rate after every actor update (saved with the model;
         training is unchanged, the average is only played). ``"auto"``: that separate average,
-        with the rate set when training starts from the run's budget, about 10 / (the run's actor
+        with the rate set by the algorithm as it trains from the run's budget, about 10 / (the run's actor
         updates; see :func:`auto_actor_average_rate`), so that the average spans a tenth of any
         run. A fixed rate counts updates, not steps: 0.0002 spans about the last 5,000 updates, a
         tenth of a Blind Soccer run with 16 games, where it removes the actor's dips; on a run of
