@@ -12,6 +12,9 @@ import pathlib
 import re
 import shlex
 import sys
+import time
+from collections.abc import Callable, Mapping
+from contextlib import AbstractContextManager
 from typing import Any
 
 from sb3_comm.results import RunResult, machine_info, write_json
@@ -19,6 +22,7 @@ from sb3_comm.results import RunResult, machine_info, write_json
 __all__ = [
     "RESULTS_DIR",
     "add_threads_option",
+    "alternated_learning_rates",
     "apply_threads_option",
     "checkpoints",
     "command_line",
@@ -38,6 +42,27 @@ def checkpoints(run_dir: str | pathlib.Path, min_steps: int = 0) -> list[tuple[i
         for path in pathlib.Path(run_dir, "checkpoints").glob("model_*_steps.zip")
         if (m := re.fullmatch(r"model_(\d+)_steps\.zip", path.name)) and int(m.group(1)) >= min_steps
     )
+
+
+def alternated_learning_rates(
+    model: Any,
+    variants: Mapping[str, Callable[[], AbstractContextManager[Any]]],
+    rounds: int,
+    steps: int,
+    log_interval: int,
+) -> dict[str, list[float]]:
+    """Environment steps per second of ``model.learn(steps)`` under each variant, one value per
+    round: each variant is a context in which the model trains, and their order is reversed every
+    round, so that a slow phase of a shared machine hits them alike."""
+    names = list(variants)
+    rates: dict[str, list[float]] = {name: [] for name in names}
+    for k in range(rounds):
+        for name in names if k % 2 == 0 else names[::-1]:
+            with variants[name]():
+                began = time.perf_counter()
+                model.learn(steps, reset_num_timesteps=False, log_interval=log_interval)
+                rates[name].append(steps / (time.perf_counter() - began))
+    return rates
 
 
 def add_threads_option(parser: argparse.ArgumentParser) -> None:

@@ -18,14 +18,13 @@ import argparse
 import contextlib
 import statistics
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import torch as th
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import write_results
+from _common import alternated_learning_rates, write_results
 
 from sb3_comm import METHODS, CommDDPG, make_comm_vec_env
 
@@ -51,14 +50,8 @@ def time_learning(method: str, args: argparse.Namespace) -> dict[str, list[float
     )  # fmt: skip
     assert model.policy.actor_average is not None, "the constructor's default keeps the average"
     model.learn(args.warmup, log_interval=args.log_interval)
-    rates: dict[str, list[float]] = {"average": [], "no average": []}
-    for k in range(args.rounds):
-        for name in ("average", "no average") if k % 2 == 0 else ("no average", "average"):
-            with _without_average(model) if name == "no average" else contextlib.nullcontext():
-                began = time.perf_counter()
-                model.learn(args.steps, reset_num_timesteps=False, log_interval=args.log_interval)
-                rates[name].append(args.steps / (time.perf_counter() - began))
-    return rates
+    variants = {"average": contextlib.nullcontext, "no average": lambda: _without_average(model)}
+    return alternated_learning_rates(model, variants, args.rounds, args.steps, args.log_interval)
 
 
 def main() -> None:

@@ -24,16 +24,18 @@ worker where a core is spare) and logging included.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import statistics
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import torch as th
 from stable_baselines3.common.buffers import BaseBuffer
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import write_results
+from _common import alternated_learning_rates, write_results
 
 from sb3_comm import METHODS, CommDDPG, make_comm_vec_env
 from sb3_comm.common import networks
@@ -113,20 +115,21 @@ def _use_previous_steps(previous: bool) -> None:
             del MonteCarloReplayBuffer.to_torch
 
 
+@contextlib.contextmanager
+def _steps_of(previous: bool) -> Iterator[None]:
+    """The learners train with the previous optimizer steps (or the current ones), then the current."""
+    _use_previous_steps(previous)
+    try:
+        yield
+    finally:
+        _use_previous_steps(False)
+
+
 def time_learning(method: str, args: argparse.Namespace) -> dict[str, list[float]]:
     """Environment steps per second of ``learn(args.steps)``, current and previous steps, per round."""
     model = _warmed_up_model(method, args)
-    rates: dict[str, list[float]] = {"current": [], "previous": []}
-    try:
-        for k in range(args.rounds):
-            for name in ("current", "previous") if k % 2 == 0 else ("previous", "current"):
-                _use_previous_steps(name == "previous")
-                began = time.perf_counter()
-                model.learn(args.steps, reset_num_timesteps=False, log_interval=args.log_interval)
-                rates[name].append(args.steps / (time.perf_counter() - began))
-    finally:
-        _use_previous_steps(False)
-    return rates
+    variants = {"current": lambda: _steps_of(False), "previous": lambda: _steps_of(True)}
+    return alternated_learning_rates(model, variants, args.rounds, args.steps, args.log_interval)
 
 
 def learning_main(args: argparse.Namespace) -> None:
