@@ -219,27 +219,38 @@ def test_cli_train_refuses_an_unknown_or_single_agent_task(
     assert not list(tmp_path.iterdir())
 
 
+def _reports_of_a_team_that_sends_one(
+    model, network, flag_sets: list[list[str]], tmp_path, capsys
+) -> list[dict]:
+    """``sb3-comm evaluate`` reports of ``model`` saved with ``network``'s output layer always sending
+    +1 (weights 0, bias 1), one report per set of flags."""
+    import torch as th
+
+    last = network.nets[0][-1]
+    with th.no_grad():
+        last.weight.zero_()
+        last.bias.fill_(1.0)
+    model.save(tmp_path / "model.zip")
+    reports = []
+    for flags in flag_sets:
+        command = ["evaluate", str(tmp_path / "model.zip"), "--env", "GuessMyNumber-v0", "--episodes", "2"]
+        assert main(command + flags) == 0
+        reports.append(json.loads(capsys.readouterr().out))
+    return reports
+
+
 def test_cli_evaluate_plays_the_averaged_actor_when_asked(tmp_path, capsys) -> None:
     """``sb3-comm evaluate --averaged-actor`` plays the target actor: here one that always sends the
     message +1, so its games differ from the actor's."""
-    import torch as th
-
     from sb3_comm import make_comm_vec_env
 
     env = make_comm_vec_env("GuessMyNumber-v0", n_envs=2, seed=0)
     model = CommDDPG(
         "TCG", env, seed=0, device="cpu", policy_kwargs={"averaged_actor": False}
     )  # plays its actor
-    last = model.policy.actor_target.nets[0][-1]
-    with th.no_grad():
-        last.weight.zero_()
-        last.bias.fill_(1.0)
-    model.save(tmp_path / "model.zip")
-    reports = []
-    for flag in ([], ["--averaged-actor"]):
-        command = ["evaluate", str(tmp_path / "model.zip"), "--env", "GuessMyNumber-v0", "--episodes", "2"]
-        assert main(command + flag) == 0
-        reports.append(json.loads(capsys.readouterr().out))
+    reports = _reports_of_a_team_that_sends_one(
+        model, model.policy.actor_target, [[], ["--averaged-actor"]], tmp_path, capsys
+    )
     assert [r["averaged_actor"] for r in reports] == [False, True]
     assert reports[1]["actor_average_tau"] is None  # the target actor played, no separate average
     assert reports[0]["agent_mean_returns"] != reports[1]["agent_mean_returns"]
@@ -248,21 +259,12 @@ def test_cli_evaluate_plays_the_averaged_actor_when_asked(tmp_path, capsys) -> N
 def test_cli_evaluate_plays_the_actor_of_a_default_team_when_asked(tmp_path, capsys) -> None:
     """A new team plays its actor's average (the default): ``sb3-comm evaluate`` plays it as saved,
     ``--no-averaged-actor`` plays the actor instead (here an average that always sends +1)."""
-    import torch as th
-
     from sb3_comm import make_comm_vec_env
 
     model = CommDDPG("TCG", make_comm_vec_env("GuessMyNumber-v0", n_envs=2, seed=0), seed=0, device="cpu")
-    last = model.policy.actor_average.nets[0][-1]
-    with th.no_grad():
-        last.weight.zero_()
-        last.bias.fill_(1.0)
-    model.save(tmp_path / "model.zip")
-    reports = []
-    for flag in ([], ["--no-averaged-actor"]):
-        command = ["evaluate", str(tmp_path / "model.zip"), "--env", "GuessMyNumber-v0", "--episodes", "2"]
-        assert main(command + flag) == 0
-        reports.append(json.loads(capsys.readouterr().out))
+    reports = _reports_of_a_team_that_sends_one(
+        model, model.policy.actor_average, [[], ["--no-averaged-actor"]], tmp_path, capsys
+    )
     assert [r["averaged_actor"] for r in reports] == [True, False]
     assert reports[0]["actor_average_tau"] == "auto"
     assert reports[0]["agent_mean_returns"] != reports[1]["agent_mean_returns"]
