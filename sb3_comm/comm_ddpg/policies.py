@@ -54,6 +54,8 @@ class CommPolicy(HybridPolicy):
     :param actor_average_tau: the rate of that average (None: the target actor's, ``tau``; a
         number, or ``"auto"``: a separate average, the rate set from the run's budget; see
         :class:`HybridPolicy`).
+    :param precision: ``"float32"`` or ``"bfloat16"``: the arithmetic of the hidden layers of every
+        network, the GSN's included (see :class:`HybridPolicy`).
     :param gsn_net_arch: hidden widths of the GSN message extractor ``M``.
     :param gsn_reward_net_arch: hidden widths of the GSN reward model ``R``.
     :param gsn_message_activation: ``"tanh"`` or ``"linear"`` (see the GSN).
@@ -99,6 +101,7 @@ class CommPolicy(HybridPolicy):
         actor_guard: bool = False,
         averaged_actor: bool = False,
         actor_average_tau: float | str | None = None,
+        precision: str = "float32",
         gsn_net_arch: list[int] | None = None,
         gsn_reward_net_arch: list[int] | None = None,
         gsn_message_activation: str = "tanh",
@@ -157,6 +160,7 @@ class CommPolicy(HybridPolicy):
             actor_guard=actor_guard,
             averaged_actor=averaged_actor,
             actor_average_tau=actor_average_tau,
+            precision=precision,
             optimizer_class=optimizer_class,
             optimizer_kwargs=optimizer_kwargs,
         )

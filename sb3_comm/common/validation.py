@@ -309,6 +309,7 @@ POLICY_KWARGS: dict[str, Check] = {
         special=(None, "auto"),
         hint="None: the target actor; 'auto': set from the run's budget, 10 / its actor updates",
     ),
+    "precision": OneOf(("float32", "bfloat16")),
 }
 """What the checked entries of ``policy_kwargs`` accept (others are left to the policy)."""
 

@@ -25,7 +25,7 @@ from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from torch import nn
 
 from sb3_comm.common.layout import HybridActionLayout
-from sb3_comm.common.networks import mlp
+from sb3_comm.common.networks import PRECISIONS, mlp, set_precision
 from sb3_comm.common.validation import SCORE_GRADIENTS, check_observation
 
 __all__ = [
@@ -111,6 +111,14 @@ class HybridPolicy(BasePolicy):
         fewer updates it lags the actor for most of the run (Guess My Number's 18,750 updates: the
         bar at 275,000 of 300,000 steps, the actor's at 50,000–75,000; at the rate ``"auto"`` gives,
         0.00053, at 125,000; README, "Every seed, every evaluation").
+    :param precision: the arithmetic of every network's hidden layers (actor, critics, their
+        targets and average, and a team's GSN): ``"float32"`` (default) or ``"bfloat16"``, mixed
+        precision where the hidden layers' matrix products run in bfloat16 and the output layers,
+        parameters, gradients, optimizer state and losses stay float32
+        (:class:`~sb3_comm.common.networks.MLP`).
+        Faster where the processor has bfloat16 arithmetic (AVX-512 BF16, AMX, recent GPUs); it
+        changes the numbers a network computes, so its learning results are measured apart (README,
+        "Training in bfloat16").
     :param optimizer_class: optimizer of actor and critic.
     :param optimizer_kwargs: extra optimizer arguments (the reference used Adam betas (0.95, 0.999)).
     """
@@ -134,9 +142,16 @@ class HybridPolicy(BasePolicy):
         actor_guard: bool = False,
         averaged_actor: bool = False,
         actor_average_tau: float | str | None = None,
+        precision: str = "float32",
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
+        if precision not in PRECISIONS:
+            raise ValueError(
+                f"precision must be one of {list(PRECISIONS)} (the hidden layers' arithmetic), "
+                f"got {precision!r}"
+            )
+        self.precision = precision
         auto = isinstance(actor_average_tau, str) and actor_average_tau == ACTOR_AVERAGE_AUTO
         if not (
             actor_average_tau is None
@@ -182,6 +197,7 @@ class HybridPolicy(BasePolicy):
         self.env_action_dim = self._env_action_dim()
         self.actor_out_dim = self._actor_out_dim()
         self._build(lr_schedule)
+        set_precision(self, precision)
 
     # ------------------------------------------------------------------------------ build --
     def _env_action_dim(self) -> int:
@@ -454,6 +470,7 @@ class HybridPolicy(BasePolicy):
             actor_guard=self.actor_guard,
             averaged_actor=self.averaged_actor,
             actor_average_tau=self.actor_average_tau,
+            precision=self.precision,
             lr_schedule=self._dummy_schedule,
             optimizer_class=self.optimizer_class,
             optimizer_kwargs=self.optimizer_kwargs,
