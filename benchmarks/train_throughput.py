@@ -10,6 +10,10 @@ of the packaged configuration's budget; TD3: SB3's default).
 
     python benchmarks/train_throughput.py --env BlindSoccer-v0 --n-envs 8 --steps 3000
 
+With ``--precisions float32 bfloat16`` every method is also timed with its networks' hidden layers
+in bfloat16 (``policy_kwargs={"precision": "bfloat16"}``), in the same rounds; TD3 stays SB3's
+float32.
+
 With ``--logging`` it measures instead what TensorBoard logging costs: every method trains with
 its event files written at the default interval of its packaged configuration (about 200 points
 over ``n_timesteps``: losses, Q statistics, timings, message histograms), and with no training
@@ -34,6 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
 
 from sb3_comm import METHODS, CommDDPG, make_comm_vec_env
+from sb3_comm.common.networks import PRECISIONS
 
 
 class _Stopwatch:
@@ -155,6 +160,13 @@ def main() -> None:
     parser.add_argument("--name", default=None, help="result file stem")
     parser.add_argument("--logging", action="store_true", help="measure the cost of TensorBoard logging")
     parser.add_argument(
+        "--precisions",
+        nargs="+",
+        choices=list(PRECISIONS),
+        default=["float32"],
+        help="CommDDPG's policy_kwargs precision; every method is timed with each",
+    )
+    parser.add_argument(
         "--log-interval",
         type=int,
         default=None,
@@ -180,15 +192,18 @@ def main() -> None:
             **common,
         )
 
-    def comm(method: str) -> CommDDPG:
+    def comm(method: str, precision: str) -> CommDDPG:
         env = make_comm_vec_env(args.env, n_envs=args.n_envs, seed=0)
-        return CommDDPG(method, env, policy_kwargs={"net_arch": args.net_arch}, **common)
+        policy_kwargs = {"net_arch": args.net_arch, "precision": precision}
+        return CommDDPG(method, env, policy_kwargs=policy_kwargs, **common)
 
-    builders = {"TD3": td3, **{m: (lambda m=m: comm(m)) for m in METHODS}}
+    # a method's row: its name, with the precision where it is not float32
+    labels = {(m if p == "float32" else f"{m} {p}"): (m, p) for p in args.precisions for m in METHODS}
+    builders = {"TD3": td3, **{label: (lambda mp=mp: comm(*mp)) for label, mp in labels.items()}}
     # Logged training points as often as in a real run: CommDDPG's default interval of the packaged
     # configuration's budget (about 200 points per run; ``learn(args.steps)`` alone would default
     # to a point every VecEnv step), TD3 SB3's default (every 4 episodes).
-    intervals = {"TD3": 4, **{m: log_interval(m, args) for m in METHODS}}
+    intervals = {"TD3": 4, **{label: log_interval(m, args) for label, (m, _) in labels.items()}}
     # Every model is built and warmed up once, then timed in rounds, each round every model in
     # turn: a slow phase of a shared machine then hits every model of that round alike, and the
     # overhead is the median over rounds of the ratio within a round.
@@ -203,7 +218,7 @@ def main() -> None:
             model.learn(args.steps, reset_num_timesteps=False, log_interval=intervals[name])
             rounds[name].append(args.steps / (time.perf_counter() - began))
         print(f"round {k + 1}: " + "  ".join(f"{n} {r[-1]:.0f}" for n, r in rounds.items()), flush=True)
-    gsn_model = models.get("GSN")
+    gsn_model = models.get("GSN") or models.get(f"GSN {args.precisions[0]}")
     worker = bool(
         gsn_model is not None and gsn_model.gsn_callback is not None and gsn_model.gsn_callback.uses_worker()
     )
@@ -211,24 +226,26 @@ def main() -> None:
     medians = {name: statistics.median(r) for name, r in rounds.items()}
     overhead = {
         m: statistics.median(td3_rate / rate for td3_rate, rate in zip(rounds["TD3"], rounds[m], strict=True))
-        for m in METHODS
+        for m in labels
     }
     rows = [
         "| model | env steps/s, best | env steps/s, median | overhead vs TD3 (×), median of rounds |",
         "|---|---:|---:|---:|",
     ]
     rows.append(f"| TD3 (DDPG settings, flat team) | {rates['TD3']:.0f} | {medians['TD3']:.0f} | 1.00 |")
-    rows += [f"| CommDDPG {m} | {rates[m]:.0f} | {medians[m]:.0f} | {overhead[m]:.2f} |" for m in METHODS]
+    rows += [f"| CommDDPG {m} | {rates[m]:.0f} | {medians[m]:.0f} | {overhead[m]:.2f} |" for m in labels]
     notes = (
         f"\n\nEnv `{args.env}`, {args.n_envs} games per VecEnv step, one gradient step per VecEnv step, "
-        f"batch {args.batch_size}, hidden layers {args.net_arch}, torch threads {args.threads}. Each model "
+        f"batch {args.batch_size}, hidden layers {args.net_arch}, torch threads {args.threads}; CommDDPG's "
+        f"hidden layers in {' and in '.join(args.precisions)} (`policy_kwargs` `precision`; TD3: SB3's "
+        "float32). Each model "
         f"is warmed up for {args.warmup} env steps, then timed for {args.steps} env steps in each of "
         f"{args.repeats} rounds; a round times every model in turn, and the overhead is the median over "
         "rounds of TD3's rate over the model's in that round (a slow phase of the machine hits a whole "
         "round). Overhead < 1: faster than TD3. Target: ≤ 1.0 for every method. GSN's updates in a "
         f"worker process on a spare core (`sb3_comm/comm_ddpg/gsn_worker.py`): {'yes' if worker else 'no'}; "
         "the other models use no second process. Logged training points: CommDDPG every "
-        f"{', '.join(f'{m} {intervals[m]:,}' for m in METHODS)} env steps (the default of a run of "
+        f"{', '.join(f'{m} {log_interval(m, args):,}' for m in METHODS)} env steps (the default of a run of "
         "the packaged configuration, or `--log-interval`), TD3 every 4 episodes (SB3's default)."
     )
     write_results(

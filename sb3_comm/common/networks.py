@@ -31,8 +31,9 @@ class MLP(nn.Sequential):
     the layers before the output ``Linear`` run under :func:`torch.autocast` (their matrix products
     in bfloat16, from float32 weights cast on each call), and the output layer in float32 on the
     hidden activations cast back: parameters, gradients, optimizer state, outputs and losses stay
-    float32. On a CPU with AVX-512 BF16 a [256, 256] network's forward and backward pass over 256
-    rows takes about 0.44× the float32 time (``benchmarks/results/precision_*.md``).
+    float32. It pays where the processor has bfloat16 arithmetic (AVX-512 BF16, AMX, recent GPUs);
+    the training speed it gives is measured by ``benchmarks/train_throughput.py --precisions float32
+    bfloat16``.
     """
 
     hidden_dtype: th.dtype | None = None
