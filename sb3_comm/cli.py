@@ -228,6 +228,7 @@ _RUN_FLAGS = {
     "eval_episodes": "--eval-episodes",
     "save_freq": "--save-freq",
     "log_interval": "--log-interval",
+    "precision": "--precision",
     "video_every": "--video-every",
 }
 """Flags that define a run: a resume takes them from the run folder instead."""
@@ -320,6 +321,9 @@ def _new_run(args: argparse.Namespace) -> tuple[Any, Path]:
         )
     else:
         config = RunConfig.load(args.method, env_id, seed=seed, path=args.conf, overrides=overrides)
+    if args.precision is not None:  # added to (and over) the file's policy_kwargs, which stay
+        policy_kwargs = {**(config.hyperparams.get("policy_kwargs") or {}), "precision": args.precision}
+        config = config.with_overrides({"policy_kwargs": policy_kwargs})
     if args.env_kwargs:  # added to (and over) the file's task options
         options = {**config.env_kwargs, **parse_env_kwargs(args.env_kwargs)}
         config = config.with_overrides({"env_kwargs": options})
@@ -581,6 +585,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="RUN_DIR",
         default=None,
         help="continue an interrupted run from its last checkpoint, with its own settings",
+    )
+    train.add_argument(
+        "--precision",
+        choices=["float32", "bfloat16"],
+        default=None,
+        help="arithmetic of the networks' hidden layers (policy_kwargs precision, added to the "
+        "configuration's policy_kwargs; default: the configuration's, float32). bfloat16 trains faster "
+        "where the processor has bfloat16 arithmetic; it is not the same numbers (README)",
     )
     _add_device_argument(train)
     train.add_argument("--no-progress-bar", action="store_true")

@@ -268,3 +268,24 @@ def test_cli_evaluate_plays_the_actor_of_a_default_team_when_asked(tmp_path, cap
     assert [r["averaged_actor"] for r in reports] == [True, False]
     assert reports[0]["actor_average_tau"] == "auto"
     assert reports[0]["agent_mean_returns"] != reports[1]["agent_mean_returns"]
+
+
+def test_cli_train_precision_adds_to_the_packaged_policy_kwargs(tmp_path) -> None:
+    """``--precision bfloat16`` sets the networks' arithmetic and keeps the file's other
+    policy_kwargs (its averaged_actor: false pin included), where ``-params policy_kwargs=`` would
+    replace them; --resume refuses it."""
+    args = [
+        "train", "--env", "GuessMyNumber-v0", "--method", "TCG", "--timesteps", "120", "--n-envs", "2",
+        "-f", str(tmp_path), "--eval-freq", "120", "--eval-episodes", "2", "--no-progress-bar",
+        "--precision", "bfloat16", "-params", "learning_starts=60", "batch_size=16",
+    ]  # fmt: skip
+    assert main(args) == 0
+    run = tmp_path / "GuessMyNumber-v0" / "TCG_seed0"
+    kwargs = RunConfig.load("TCG", "GuessMyNumber-v0", path=run / "config.yml").hyperparams["policy_kwargs"]
+    packaged = RunConfig.load("TCG", "GuessMyNumber-v0").hyperparams["policy_kwargs"]
+    assert kwargs == {**packaged, "precision": "bfloat16"}
+    policy = CommDDPG.load(run / "model.zip", device="cpu").policy
+    assert policy.precision == "bfloat16" and policy.averaged_actor is False
+    with pytest.raises(SystemExit):  # not a precision
+        main(["train", "--env", "GuessMyNumber-v0", "--method", "TCG", "--precision", "float16"])
+    assert main(["train", "--resume", str(run), "--precision", "float32"]) == 2
