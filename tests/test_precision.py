@@ -4,6 +4,8 @@ default (``"float32"``) computes as before."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 import torch as th
 from gymnasium import spaces
@@ -73,7 +75,7 @@ def _mlps(model: CommDDPG) -> dict[str, MLP]:
     return {name: m for name, m in model.policy.named_modules() if isinstance(m, MLP)}
 
 
-@pytest.mark.parametrize("method", ["GSN", "TCG"])
+@pytest.mark.parametrize("method", ["GSN", "TCG", "GSN-MAX"])
 def test_every_network_of_a_team_trains_in_bfloat16_and_saves_the_setting(method: str, tmp_path) -> None:
     env = make_vec_env(coin_env, n_envs=2, seed=0)
     model = CommDDPG(
@@ -82,15 +84,17 @@ def test_every_network_of_a_team_trains_in_bfloat16_and_saves_the_setting(method
     networks = _mlps(model)
     # actor, its target and average, critic and target, and GSN's extractor and reward model
     expected = {"actor", "actor_target", "actor_average", "critic", "critic_target"}
-    if method == "GSN":
+    if method != "TCG":
         expected |= {"gsn.message_extractor", "gsn.reward_model"}
-    assert {name.rsplit(".nets.", 1)[0].removesuffix(".0") for name in networks} == expected
+    if method == "GSN-MAX":  # and the effect search's two effect models
+        expected |= {"gsn.effect_model"}
+    assert {re.sub(r"\.\d+$", "", name.rsplit(".nets.", 1)[0]) for name in networks} == expected
     assert all(net.hidden_dtype is th.bfloat16 for net in networks.values())
     before = {name: p.detach().clone() for name, p in model.policy.named_parameters()}
     model.learn(200)
     for name, param in model.policy.named_parameters():
         assert param.dtype == th.float32 and th.isfinite(param).all(), name
-    trained = ("actor.", "critic.", "gsn.") if method == "GSN" else ("actor.", "critic.")
+    trained = ("actor.", "critic.") if method == "TCG" else ("actor.", "critic.", "gsn.")
     moved = {name for name, p in model.policy.named_parameters() if not th.equal(p, before[name])}
     assert all(any(name.startswith(prefix) for name in moved) for prefix in trained)
 
