@@ -387,6 +387,7 @@ def _finish_tensorboard(
         hparams.setdefault("averaged_actor", bool(model.policy.averaged_actor))  # what plays
         if model.policy.averaged_actor and model.policy.actor_average_rate is not None:
             hparams.setdefault("actor_average_rate", float(model.policy.actor_average_rate))
+        hparams.setdefault("precision", model.policy.precision)  # the hidden layers' arithmetic
         record_hparams(model.logger, hparams, metrics, int(model.num_timesteps))
         # the projector labels messages with the receiver's action type: hybrid actions only
         if settings.projector_episodes > 0 and model.comm_layout.channel_size and model.comm_layout.hybrid:

@@ -133,6 +133,7 @@ def test_hparams_show_what_a_default_chose_by_method(method, shared, sees_teamma
         assert hparams["gsn_reward_sees_teammate"] == sees_teammate
     assert hparams["averaged_actor"] == 1.0  # 80 steps of 4 games: 20 updates planned, rate 10 / 20
     assert hparams["actor_average_rate"] == pytest.approx(0.5)
+    assert hparams["precision"] == "float32"  # the default, which no configuration names
 
 
 def test_plain_learn_logs_every_log_interval_steps(tmp_path: Path) -> None:
