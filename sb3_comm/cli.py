@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 import yaml
 
 from sb3_comm.common.hyperparams import canonical_value
+from sb3_comm.common.networks import PRECISIONS
 
 if TYPE_CHECKING:
     from sb3_comm.comm_ddpg import CommDDPG
@@ -588,7 +589,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     train.add_argument(
         "--precision",
-        choices=["float32", "bfloat16"],
+        choices=list(PRECISIONS),
         default=None,
         help="arithmetic of the networks' hidden layers (policy_kwargs precision, added to the "
         "configuration's policy_kwargs; default: the configuration's, float32). bfloat16 trains faster "

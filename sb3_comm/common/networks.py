@@ -12,6 +12,7 @@ __all__ = [
     "PRECISIONS",
     "AgentMLPs",
     "adam_step",
+    "check_precision",
     "clip_gradients",
     "gradient_step",
     "inverting_gradients",
@@ -48,10 +49,18 @@ class MLP(nn.Sequential):
         return layers[-1](x.float())  # type: ignore[misc]
 
 
+def check_precision(precision: str) -> None:
+    """A clear error unless ``precision`` is one of :data:`PRECISIONS`."""
+    if precision not in PRECISIONS:
+        raise ValueError(
+            f"precision must be one of {list(PRECISIONS)} (the arithmetic of the networks' hidden layers), "
+            f"got {precision!r}"
+        )
+
+
 def set_precision(module: nn.Module, precision: str) -> None:
     """Set the hidden-layer arithmetic of every :class:`MLP` in ``module`` (:data:`PRECISIONS`)."""
-    if precision not in PRECISIONS:
-        raise ValueError(f"precision must be one of {list(PRECISIONS)}, got {precision!r}")
+    check_precision(precision)
     for sub in module.modules():
         if isinstance(sub, MLP):
             sub.hidden_dtype = PRECISIONS[precision]

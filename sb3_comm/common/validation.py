@@ -26,6 +26,8 @@ from typing import Any
 import numpy as np
 import torch as th
 
+from sb3_comm.common.networks import PRECISIONS
+
 __all__ = [
     "HYPERPARAMETERS",
     "POLICY_KWARGS",
@@ -309,7 +311,7 @@ POLICY_KWARGS: dict[str, Check] = {
         special=(None, "auto"),
         hint="None: the target actor; 'auto': set from the run's budget, 10 / its actor updates",
     ),
-    "precision": OneOf(("float32", "bfloat16")),
+    "precision": OneOf(tuple(PRECISIONS)),
 }
 """What the checked entries of ``policy_kwargs`` accept (others are left to the policy)."""
 

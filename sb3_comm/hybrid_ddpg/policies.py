@@ -25,7 +25,7 @@ from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from torch import nn
 
 from sb3_comm.common.layout import HybridActionLayout
-from sb3_comm.common.networks import PRECISIONS, mlp, set_precision
+from sb3_comm.common.networks import check_precision, mlp, set_precision
 from sb3_comm.common.validation import SCORE_GRADIENTS, check_observation
 
 __all__ = [
@@ -146,11 +146,7 @@ class HybridPolicy(BasePolicy):
         optimizer_class: type[th.optim.Optimizer] = th.optim.Adam,
         optimizer_kwargs: dict[str, Any] | None = None,
     ) -> None:
-        if precision not in PRECISIONS:
-            raise ValueError(
-                f"precision must be one of {list(PRECISIONS)} (the hidden layers' arithmetic), "
-                f"got {precision!r}"
-            )
+        check_precision(precision)
         self.precision = precision
         auto = isinstance(actor_average_tau, str) and actor_average_tau == ACTOR_AVERAGE_AUTO
         if not (
