@@ -270,7 +270,7 @@ def test_cli_evaluate_plays_the_actor_of_a_default_team_when_asked(tmp_path, cap
     assert reports[0]["agent_mean_returns"] != reports[1]["agent_mean_returns"]
 
 
-def test_cli_train_precision_adds_to_the_packaged_policy_kwargs(tmp_path) -> None:
+def test_cli_train_precision_adds_to_the_packaged_policy_kwargs(tmp_path, capsys) -> None:
     """``--precision bfloat16`` sets the networks' arithmetic and keeps the file's other
     policy_kwargs (its averaged_actor: false pin included), where ``-params policy_kwargs=`` would
     replace them; --resume refuses it."""
@@ -280,6 +280,7 @@ def test_cli_train_precision_adds_to_the_packaged_policy_kwargs(tmp_path) -> Non
         "--precision", "bfloat16", "-params", "learning_starts=60", "batch_size=16",
     ]  # fmt: skip
     assert main(args) == 0
+    assert "2 parallel games, seed 0, hidden layers in bfloat16\n" in capsys.readouterr().out
     run = tmp_path / "GuessMyNumber-v0" / "TCG_seed0"
     kwargs = RunConfig.load("TCG", "GuessMyNumber-v0", path=run / "config.yml").hyperparams["policy_kwargs"]
     packaged = RunConfig.load("TCG", "GuessMyNumber-v0").hyperparams["policy_kwargs"]
