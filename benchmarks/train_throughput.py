@@ -218,7 +218,7 @@ def main() -> None:
             model.learn(args.steps, reset_num_timesteps=False, log_interval=intervals[name])
             rounds[name].append(args.steps / (time.perf_counter() - began))
         print(f"round {k + 1}: " + "  ".join(f"{n} {r[-1]:.0f}" for n, r in rounds.items()), flush=True)
-    gsn_model = models.get("GSN") or models.get(f"GSN {args.precisions[0]}")
+    gsn_model = next((models[label] for label, (m, _) in labels.items() if m == "GSN"), None)
     worker = bool(
         gsn_model is not None and gsn_model.gsn_callback is not None and gsn_model.gsn_callback.uses_worker()
     )
