@@ -434,8 +434,14 @@ def _run_experiment(args: argparse.Namespace, file_or_name: str) -> tuple[int, P
 
     if args.workers is not None and args.workers < 0:
         raise ValueError(f"--workers must be 0 (in this process) or more, got {args.workers}")
-    spec = load_experiment(file_or_name, quick=args.quick)
-    default = Path("runs/experiments") / f"{spec.name}{'-quick' if spec.is_quick else ''}"
+    overrides = {"seeds": args.seeds, "precision": args.precision}
+    spec = load_experiment(file_or_name, quick=args.quick, overrides=overrides)
+    # Runs in another arithmetic go to their own folder: a report groups a folder's runs by method
+    # and task, whatever their configuration.
+    suffix = ("-quick" if spec.is_quick else "") + (
+        f"-{spec.precision}" if spec.precision not in (None, "float32") else ""
+    )
+    default = Path("runs/experiments") / f"{spec.name}{suffix}"
     out = Path(args.out) if args.out else default
     summary = run_experiment(
         spec,
@@ -648,7 +654,25 @@ def build_parser() -> argparse.ArgumentParser:
             "--quick", action="store_true", help="the file's quick settings: 1 seed, short runs"
         )
         command.add_argument(
-            "--out", default=None, help="experiment folder (default: runs/experiments/<name>[-quick])"
+            "--out",
+            default=None,
+            help="experiment folder (default: runs/experiments/<name>[-quick][-bfloat16])",
+        )
+        command.add_argument(
+            "--seeds",
+            type=int,
+            nargs="+",
+            default=None,
+            metavar="SEED",
+            help="train these seeds instead of the file's (e.g. --seeds 0 1 2 3 4); a run already "
+            "finished in the folder is not trained again",
+        )
+        command.add_argument(
+            "--precision",
+            choices=list(PRECISIONS),
+            default=None,
+            help="arithmetic of every run's hidden layers, added to each configuration's policy_kwargs "
+            "(default: the configurations', float32); not float32: its own default folder",
         )
         command.add_argument(
             "--workers",
@@ -678,8 +702,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     reproduce = sub.add_parser(
         "reproduce",
-        help="the paper's experiment (NONE/RIAL/TCG/GSN and, beyond it, GSN-MAX x both tasks x 3 seeds), "
-        "then the report",
+        help="the paper's experiment (NONE/RIAL/TCG/GSN and, beyond it, GSN-MAX x both tasks x 3 seeds, "
+        "or --seeds), then the report",
     )
     experiment_options(reproduce)
     reproduce.set_defaults(func=_reproduce)

@@ -221,6 +221,65 @@ def test_override_sections_apply_from_general_to_specific() -> None:
     assert gsn.hyperparams["learning_rate"] == "lin_0.001"  # untouched packaged value
 
 
+def test_seeds_and_precision_from_the_command_line_replace_the_files() -> None:
+    base = {r.key: r for r in load_experiment("paper").runs()}
+    five = load_experiment("paper", overrides={"seeds": [0, 1, 2, 3, 4]}).runs()
+    assert len(five) == 5 * 2 * 5 and {r.seed for r in five} == {0, 1, 2, 3, 4}
+    for run in five:  # more seeds, the same configurations: the finished seeds' folders are reused
+        if run.seed <= 2:
+            assert run.relative_dir == base[run.key].relative_dir
+    quick = load_experiment("paper", quick=True, overrides={"seeds": [3]})
+    assert {r.seed for r in quick.runs()} == {3}  # over the quick section's seeds too
+    assert {r.timesteps for r in quick.runs() if r.task == "GuessMyNumber-v0"} == {20_000}
+
+    bf16 = load_experiment("paper", overrides={"precision": "bfloat16"})
+    assert bf16.precision == "bfloat16" and bf16.to_dict()["precision"] == "bfloat16"
+    for run in bf16.runs():  # added to each configuration's policy_kwargs; its pins stay
+        kwargs = base[run.key].hyperparams["policy_kwargs"]
+        assert run.hyperparams["policy_kwargs"] == {**kwargs, "precision": "bfloat16"}
+        assert run.hyperparams["policy_kwargs"].get("averaged_actor") is False
+        assert run.config_hash != base[run.key].config_hash
+    # float32, the configurations' own, is the same runs; a file may set it too.
+    same = load_experiment("paper", overrides={"precision": "float32"}).runs()
+    assert [r.config_hash for r in same] == [base[r.key].config_hash for r in same]
+    in_file = parse_experiment(tiny(precision="bfloat16")).runs()
+    assert {r.hyperparams["policy_kwargs"]["precision"] for r in in_file} == {"bfloat16"}
+    assert in_file[0].hyperparams["policy_kwargs"]["net_arch"] == [16, 16]
+
+
+@pytest.mark.parametrize(
+    ("overrides", "message"),
+    [
+        ({"precision": "float16"}, r"'precision' must be one of \['float32', 'bfloat16'\] or null"),
+        ({"seeds": [-1]}, r"'seeds' must be at least 0, got -1"),
+        ({"seeds": [1, 1]}, r"'seeds' lists a seed twice: \[1, 1\]"),
+        ({"seed": [1]}, r"command-line override\(s\) of unknown key\(s\) \['seed'\]; accepted: \['methods'"),
+    ],
+)
+def test_bad_command_line_overrides_are_clear_errors(overrides: dict, message: str) -> None:
+    with pytest.raises(ExperimentSpecError, match=message):
+        parse_experiment(tiny(), source="exp.yml", overrides=overrides)
+
+
+def test_cli_seeds_and_precision_train_those_runs_in_their_own_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fake_analysis
+) -> None:
+    file = write(tmp_path / "exp.yml", tiny())
+    monkeypatch.chdir(tmp_path)
+    command = ["experiment", str(file), "--workers", "0", "--seeds", "3", "--precision", "bfloat16"]
+    assert main([*command, "--only", "NONE/*/*"]) == 0
+    out = tmp_path / "runs" / "experiments" / "tiny-bfloat16"  # not the float32 runs' folder
+    assert not (tmp_path / "runs" / "experiments" / "tiny").exists()
+    (found,) = results(out).items()
+    assert found[0] == "NONE/GuessMyNumber-v0/3"
+    assert found[1]["hyperparams"]["policy_kwargs"] == {"net_arch": [16, 16], "precision": "bfloat16"}
+    assert yaml.safe_load((out / "experiment.yml").read_text())["precision"] == "bfloat16"
+    (model_file,) = (out / "runs").rglob("model.zip")
+    from sb3_comm import CommDDPG
+
+    assert CommDDPG.load(model_file).policy.precision == "bfloat16"
+
+
 # --------------------------------------------------------------------------- running
 
 

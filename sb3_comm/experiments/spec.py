@@ -10,6 +10,7 @@ starts. Example (the packaged ``paper.yml``)::
     timesteps: null                  # int, {task: int}, or null: the packaged n_timesteps
     eval_freq: 50000                 # learning-curve evaluation every N env steps
     eval_episodes: 100               # games per evaluation (also the final ablation evaluation)
+    precision: null                  # optional: float32 or bfloat16 hidden layers in every run
     hyperparams:                     # optional overrides of the packaged zoo_configs/<method>.yml
       all: {}                        #   every run
       GSN: {}                        #   one method
@@ -71,6 +72,7 @@ TOP_LEVEL_KEYS = (
     "analysis_episodes",
     "save_freq",
     "hyperparams",
+    "precision",
     "quick",
 )
 """Every key an experiment file may have."""
@@ -93,6 +95,7 @@ _DEFAULTS: dict[str, Any] = {
     "analysis_episodes": 10,
     "save_freq": 100_000,
     "hyperparams": {},
+    "precision": None,
     "quick": {},
 }
 
@@ -205,6 +208,8 @@ class ExperimentSpec:
     :param analysis_episodes: games recorded for the communication analysis.
     :param save_freq: checkpoint every this many environment steps.
     :param hyperparams: override sections (``all``, a method, a task or ``METHOD/TASK``).
+    :param precision: the arithmetic of every run's hidden layers, added to the ``policy_kwargs``
+        of each configuration (``"float32"`` or ``"bfloat16"``; None: each configuration's own).
     :param quick: the top-level values that ``--quick`` replaces.
     :param description: free text.
     :param is_quick: whether :attr:`quick` has been applied.
@@ -222,6 +227,7 @@ class ExperimentSpec:
     save_freq: int
     hyperparams: dict[str, dict[str, Any]]
     quick: dict[str, Any]
+    precision: str | None = None
     description: str = ""
     is_quick: bool = False
     source: str | None = None
@@ -236,6 +242,10 @@ class ExperimentSpec:
     def resolve(self, method: str, task: str) -> tuple[int, dict[str, Any]]:
         """Budget and text-form hyperparameters (``n_envs`` included) of ``method`` on ``task``."""
         config = RunConfig.load(method, task, overrides=self.overrides(method, task))
+        policy_kwargs = config.hyperparams.get("policy_kwargs") or {}
+        if self.precision is not None and policy_kwargs.get("precision", "float32") != self.precision:
+            # added to the configuration's policy_kwargs, which stay (an override would replace them)
+            config = config.with_overrides({"policy_kwargs": {**policy_kwargs, "precision": self.precision}})
         budget = self.timesteps.get(task) or config.n_timesteps
         return int(budget), _plain({"n_envs": config.n_envs, **config.hyperparams})
 
@@ -288,6 +298,7 @@ class ExperimentSpec:
             "analysis_episodes": self.analysis_episodes,
             "save_freq": self.save_freq,
             "hyperparams": self.hyperparams,
+            "precision": self.precision,
             "resolved": resolved,
         }
 
@@ -319,11 +330,15 @@ def _locate(file_or_name: str | Path) -> Path:
     )
 
 
-def load_experiment(file_or_name: str | Path, quick: bool = False) -> ExperimentSpec:
+def load_experiment(
+    file_or_name: str | Path, quick: bool = False, overrides: Mapping[str, Any] | None = None
+) -> ExperimentSpec:
     """Read and check an experiment file, or a packaged one by name (``"paper"``).
 
     :param file_or_name: a YAML path or the name of a packaged experiment.
     :param quick: apply the file's ``quick`` overrides.
+    :param overrides: top-level values that replace the file's, ``quick``'s included (the command
+        line's ``--seeds`` and ``--precision``: ``{"seeds": [0, 1, 2, 3, 4]}``), checked alike.
     :raises ExperimentSpecError: malformed YAML, unknown key, method, task or hyperparameter, or a
         bad value; the message names the entry and what is accepted.
     :raises FileNotFoundError: no such file and no such packaged experiment.
@@ -333,11 +348,15 @@ def load_experiment(file_or_name: str | Path, quick: bool = False) -> Experiment
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as error:
         raise ExperimentSpecError(f"Experiment file {path} is not valid YAML: {error}") from error
-    return parse_experiment(data, quick=quick, source=str(path), default_name=path.stem)
+    return parse_experiment(data, quick=quick, source=str(path), default_name=path.stem, overrides=overrides)
 
 
 def parse_experiment(
-    data: Any, quick: bool = False, source: str | None = None, default_name: str = "experiment"
+    data: Any,
+    quick: bool = False,
+    source: str | None = None,
+    default_name: str = "experiment",
+    overrides: Mapping[str, Any] | None = None,
 ) -> ExperimentSpec:
     """Check an experiment given as a dict (the parsed YAML) and build its :class:`ExperimentSpec`.
 
@@ -345,6 +364,7 @@ def parse_experiment(
     :param quick: apply its ``quick`` overrides.
     :param source: where it came from (for messages).
     :param default_name: name when the data has none.
+    :param overrides: top-level values that replace the data's and ``quick``'s (the command line's).
     """
     where = source or "experiment"
     if not isinstance(data, dict):
@@ -358,7 +378,9 @@ def parse_experiment(
             raise ExperimentSpecError(
                 f"{where}: missing key {key!r}; required: ['methods', 'tasks', 'seeds']"
             )
-    settings = {**_DEFAULTS, **data}
+    given = {key: value for key, value in (overrides or {}).items() if value is not None}
+    _check_keys(given, _QUICK_KEYS, "command-line override(s) of unknown key(s)")
+    settings = {**_DEFAULTS, **data, **given}
     quick_values = settings["quick"] or {}
     if not isinstance(quick_values, dict):
         raise ExperimentSpecError(f"{where}: 'quick' must be a mapping of keys {list(_QUICK_KEYS)}")
@@ -368,7 +390,7 @@ def parse_experiment(
             f"--quick: {where} has no 'quick' section (the values --quick replaces, e.g. "
             "'quick: {seeds: [0], timesteps: 20000, eval_freq: 5000}')"
         )
-    applied = {**settings, **quick_values}
+    applied = {**settings, **quick_values, **given}
     if "hyperparams" in quick_values:
         applied["hyperparams"] = _merge_sections(settings["hyperparams"], quick_values["hyperparams"])
     # Both variants are checked, so that a broken --quick shows up at once.
@@ -405,6 +427,7 @@ def _build(settings: dict[str, Any], context: str, default_name: str) -> Experim
         save_freq=_int(settings["save_freq"], "save_freq", context),
         hyperparams=_hyperparams(settings["hyperparams"], context),
         quick={},
+        precision=_precision(settings["precision"], context),
     )
     for task in spec.tasks:  # the packaged configs exist and parse, for every pair
         for method in spec.methods:
@@ -454,6 +477,17 @@ def _int(value: Any, key: str, context: str, minimum: int = 1) -> int:
     if number < minimum:
         raise ExperimentSpecError(f"{context}: {key!r} must be at least {minimum}, got {value!r}")
     return int(number)
+
+
+def _precision(value: Any, context: str) -> str | None:
+    from sb3_comm.common.networks import PRECISIONS
+
+    if value is None or (isinstance(value, str) and value in PRECISIONS):
+        return value
+    raise ExperimentSpecError(
+        f"{context}: 'precision' must be one of {list(PRECISIONS)} or null (each configuration's own), "
+        f"got {value!r}"
+    )
 
 
 def _timesteps(value: Any, tasks: list[str], context: str) -> dict[str, int | None]:
