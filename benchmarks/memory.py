@@ -6,6 +6,9 @@ their size is counted from the arrays themselves; a run's peak resident set size
 kernel (``ru_maxrss``) after ``--steps`` of training with the packaged configuration.
 
     python benchmarks/memory.py --env BlindSoccer-v0 --method GSN --steps 50000
+
+``--precision bfloat16`` trains with the networks' hidden layers in bfloat16 (added to the packaged
+``policy_kwargs``).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import add_threads_option, apply_threads_option, write_results
 
+from sb3_comm.common.networks import PRECISIONS
 from sb3_comm.config import RunConfig
 from sb3_comm.training import build_model
 
@@ -40,11 +44,17 @@ def main() -> None:
     parser.add_argument("--method", default="GSN")
     parser.add_argument("--steps", type=int, default=50_000, help="training steps for the peak RSS")
     parser.add_argument("--name", default=None)
+    parser.add_argument(
+        "--precision", choices=list(PRECISIONS), default="float32", help="the hidden layers' arithmetic"
+    )
     add_threads_option(parser)
     args = parser.parse_args()
     apply_threads_option(args)
 
     config = RunConfig.load(args.method, args.env)
+    if args.precision != "float32":  # added to the packaged policy_kwargs, which stay
+        policy_kwargs = {**(config.hyperparams.get("policy_kwargs") or {}), "precision": args.precision}
+        config = config.with_overrides({"policy_kwargs": policy_kwargs})
     model = build_model(config)
     configured, configured_n = buffer_bytes(model)
     million = build_model(config.with_overrides({"buffer_size": 1_000_000}))
@@ -74,7 +84,8 @@ def main() -> None:
         f"| peak resident memory of the GSN's worker process (0: none ran) | {worker_peak / gib:.2f} GiB |",
     ]
     notes = (
-        f"\n\n{args.method} on `{args.env}`, packaged configuration ({config.n_envs} games). A transition "
+        f"\n\n{args.method} on `{args.env}`, packaged configuration ({config.n_envs} games), hidden "
+        f"layers in {args.precision}. A transition "
         "holds both agents' observation and next observation, actions, rewards and Monte-Carlo returns "
         "(float32). The buffer's pages are backed as they fill, so the peak RSS of a short run counts "
         "only the part written so far; a full buffer adds its size. The worker's resident set counts "
