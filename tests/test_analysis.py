@@ -334,6 +334,8 @@ def test_make_report_on_a_synthetic_experiment(tmp_path: Path, monkeypatch: pyte
     assert [Path(r["dir"]).parent.name for r in report["incomplete"]] == ["TCG"]
     markdown = (out / "report.md").read_text()
     assert "RIAL/seed0-abcd1234" in markdown and "messages.npz missing" in markdown
+    # no summary.json (runs put together by hand): said so, no empty command
+    assert "No runner summary (`summary.json`) in this folder" in markdown and "`None`" not in markdown
 
     table = report["final_returns"]["BlindSoccer-v0"]
     assert list(table) == ["GSN", "TCG"]

@@ -51,13 +51,21 @@ def provenance_md(info: dict[str, Any]) -> list[str]:
     """How the runs were made (:func:`~sb3_comm.analysis.runs.provenance`)."""
     machine = info.get("machine") or {}
     wall = info.get("wall_seconds")
+    runs = (
+        f"sum over the {info['runs_used']} runs used: {info['run_wall_seconds_total']:.0f} s of run time; "
+        f"environment steps per run: {', '.join(f'{n:,}' for n in info['run_env_steps'])}"
+    )
+    if info.get("command") is None:  # a folder put together by hand, or whose summary.json was lost
+        return [
+            "- No runner summary (`summary.json`) in this folder: each run's `result.json` holds its "
+            f"settings, times and seed; {runs}",
+            "",
+        ]
     return [
         f"- Command (last start of the runner): `{info.get('command')}`, finished {info.get('finished')}",
         f"- Machine: {machine.get('cpu_model', '?')}, {machine.get('usable_cores', '?')} usable cores;"
         f" backend {info.get('backend')}, {info.get('workers')} runs at a time",
-        f"- Wall-clock time of that start: {'?' if wall is None else f'{wall:.0f} s'}; "
-        f"sum over the {info['runs_used']} runs used: {info['run_wall_seconds_total']:.0f} s of run time; "
-        f"environment steps per run: {', '.join(f'{n:,}' for n in info['run_env_steps'])}",
+        f"- Wall-clock time of that start: {'?' if wall is None else f'{wall:.0f} s'}; {runs}",
         "",
     ]
 
