@@ -51,10 +51,7 @@ def main() -> None:
     args = parser.parse_args()
     apply_threads_option(args)
 
-    config = RunConfig.load(args.method, args.env)
-    if args.precision != "float32":  # added to the packaged policy_kwargs, which stay
-        policy_kwargs = {**(config.hyperparams.get("policy_kwargs") or {}), "precision": args.precision}
-        config = config.with_overrides({"policy_kwargs": policy_kwargs})
+    config = RunConfig.load(args.method, args.env).with_precision(args.precision)  # pins kept
     model = build_model(config)
     configured, configured_n = buffer_bytes(model)
     million = build_model(config.with_overrides({"buffer_size": 1_000_000}))

@@ -323,18 +323,16 @@ def _new_run(args: argparse.Namespace) -> tuple[Any, Path]:
     else:
         config = RunConfig.load(args.method, env_id, seed=seed, path=args.conf, overrides=overrides)
     if args.precision is not None:  # added to (and over) the file's policy_kwargs, which stay
-        policy_kwargs = {**(config.hyperparams.get("policy_kwargs") or {}), "precision": args.precision}
-        config = config.with_overrides({"policy_kwargs": policy_kwargs})
+        config = config.with_precision(args.precision)
     if args.env_kwargs:  # added to (and over) the file's task options
         options = {**config.env_kwargs, **parse_env_kwargs(args.env_kwargs)}
         config = config.with_overrides({"env_kwargs": options})
-    precision = (config.hyperparams.get("policy_kwargs") or {}).get("precision", "float32")
     run_name = f"{config.method}_seed{config.seed}"
     run_dir = _fresh_dir(Path(args.log_folder) / args.env / run_name, "--log-folder")
     print(
         f"Training CommDDPG {config.method} on {args.env}: {config.n_timesteps} steps, "
         f"{config.n_envs} parallel games, seed {config.seed}"
-        + (f", hidden layers in {precision}" if precision != "float32" else "")
+        + (f", hidden layers in {config.precision}" if config.precision != "float32" else "")
     )
     print(f"Run folder: {run_dir}")
     evaluation = EvalSettings(

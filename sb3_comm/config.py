@@ -301,6 +301,24 @@ class RunConfig:
         config = RunConfig.from_entry(merged, self.method, self.task, self.seed, where)
         return dataclasses.replace(config, source=self.source, seed=self.seed if seed is None else int(seed))
 
+    @property
+    def precision(self) -> str:
+        """The arithmetic of the networks' hidden layers (``policy_kwargs`` ``precision``; float32
+        where unset)."""
+        return (self.hyperparams.get("policy_kwargs") or {}).get("precision", "float32")
+
+    def with_precision(self, precision: str) -> RunConfig:
+        """A copy whose ``policy_kwargs`` add ``precision``, keeping their other entries (an override
+        of ``policy_kwargs`` replaces them whole); the configuration itself where it already trains
+        in that arithmetic (so that its hash stays).
+
+        :param precision: ``"float32"`` or ``"bfloat16"`` (checked like a file's entry).
+        """
+        if precision == self.precision:
+            return self
+        policy_kwargs = {**(self.hyperparams.get("policy_kwargs") or {}), "precision": precision}
+        return self.with_overrides({"policy_kwargs": policy_kwargs})
+
     def to_entry(self) -> dict[str, Any]:
         """The entry as an rl-zoo3 file holds it: ``policy``, ``n_envs``, ``n_timesteps``,
         ``env_kwargs`` (only when the task has options) and the hyperparameters in text form."""

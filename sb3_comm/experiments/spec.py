@@ -242,10 +242,8 @@ class ExperimentSpec:
     def resolve(self, method: str, task: str) -> tuple[int, dict[str, Any]]:
         """Budget and text-form hyperparameters (``n_envs`` included) of ``method`` on ``task``."""
         config = RunConfig.load(method, task, overrides=self.overrides(method, task))
-        policy_kwargs = config.hyperparams.get("policy_kwargs") or {}
-        if self.precision is not None and policy_kwargs.get("precision", "float32") != self.precision:
-            # added to the configuration's policy_kwargs, which stay (an override would replace them)
-            config = config.with_overrides({"policy_kwargs": {**policy_kwargs, "precision": self.precision}})
+        if self.precision is not None:  # added to the configuration's policy_kwargs, which stay
+            config = config.with_precision(self.precision)
         budget = self.timesteps.get(task) or config.n_timesteps
         return int(budget), _plain({"n_envs": config.n_envs, **config.hyperparams})
 
