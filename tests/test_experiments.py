@@ -95,6 +95,47 @@ def test_paper_experiment_is_packaged_and_resolves() -> None:
     assert not {r.relative_dir for r in runs} & {r.relative_dir for r in quick_runs}
 
 
+def test_paper_fast_is_the_paper_runs_with_32_games_in_bfloat16() -> None:
+    """``paper_fast`` (``sb3-comm reproduce --fast``): the paper's four methods, 5 seeds, the packaged
+    configurations but for 32 games and bfloat16; its runs are not the packaged experiment's."""
+    assert "paper_fast" in packaged_experiments()
+    fast = load_experiment("paper_fast")
+    paper = load_experiment("paper", overrides={"seeds": [0, 1, 2, 3, 4]})
+    assert fast.precision == "bfloat16"
+    fast_runs = {run.key: run for run in fast.runs()}
+    assert {r.method for r in fast_runs.values()} == {"NONE", "RIAL", "TCG", "GSN"}
+    assert {r.seed for r in fast_runs.values()} == {0, 1, 2, 3, 4} and len(fast_runs) == 4 * 2 * 5
+    for run in paper.runs():
+        if run.method == "GSN-MAX":
+            continue
+        twin = fast_runs[run.key]
+        assert (twin.timesteps, twin.eval_freq, twin.eval_episodes) == (run.timesteps, run.eval_freq, 100)
+        assert twin.hyperparams["n_envs"] == 32 and run.hyperparams["n_envs"] == 16
+        kwargs = dict(run.hyperparams["policy_kwargs"], precision="bfloat16")  # the pins kept
+        assert twin.hyperparams == {**run.hyperparams, "n_envs": 32, "policy_kwargs": kwargs}
+        assert twin.relative_dir != run.relative_dir
+    assert {r.timesteps for r in load_experiment("paper_fast", quick=True).runs()} == {30_000, 20_000}
+
+
+def test_reproduce_fast_runs_the_paper_fast_experiment(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys
+) -> None:
+    """``--fast`` picks ``paper_fast``: its folder name, its precision, its report."""
+    packaged = tmp_path / "packaged"
+    packaged.mkdir()
+    write(packaged / "paper.yml", tiny(name="paper"))
+    write(packaged / "paper_fast.yml", tiny(name="paper_fast", methods=["NONE"], precision="bfloat16"))
+    monkeypatch.setattr(spec_module, "EXPERIMENTS_DIR", packaged)
+    monkeypatch.chdir(tmp_path)
+    assert main(["reproduce", "--fast", "--workers", "0"]) == 0
+    out = tmp_path / "runs" / "experiments" / "paper_fast-bfloat16"
+    assert f"Report: {Path('runs/experiments/paper_fast-bfloat16/report')}" in capsys.readouterr().out
+    (result,) = results(out).values()
+    assert result["method"] == "NONE" and result["hyperparams"]["policy_kwargs"]["precision"] == "bfloat16"
+    assert (out / "report" / "report.md").is_file()
+    assert not (tmp_path / "runs" / "experiments" / "paper").exists()
+
+
 BAD_EXPERIMENTS = [
     (
         {"methods": ["GSN", "DIAL"]},
@@ -145,7 +186,8 @@ def test_malformed_files(tmp_path: Path) -> None:
     with pytest.raises(ExperimentSpecError, match=r"must be a mapping of keys \['name'"):
         load_experiment(listing)
     with pytest.raises(
-        FileNotFoundError, match=r"No experiment file 'papr'.*\(gsn_max, gsn_max_ablation, paper\)"
+        FileNotFoundError,
+        match=r"No experiment file 'papr'.*\(gsn_max, gsn_max_ablation, paper, paper_fast\)",
     ):
         load_experiment("papr")
     with pytest.raises(ExperimentSpecError, match=r"missing key 'seeds'"):
