@@ -28,6 +28,7 @@ __all__ = [
     "command_line",
     "finished_run",
     "machine_info",
+    "warmed_up_model",
     "write_results",
 ]
 
@@ -109,6 +110,37 @@ def finished_run(run_dir: pathlib.Path, job: dict[str, Any], settings_name: str)
         return None
     print(f"{run_dir}: finished earlier, read from {finished.name}", flush=True)
     return earlier
+
+
+def warmed_up_model(
+    method: str,
+    env_id: str,
+    n_envs: int,
+    batch_size: int,
+    net_arch: list[int],
+    warmup: int,
+    precision: str | None = None,
+) -> Any:
+    """A CPU ``CommDDPG`` of ``method`` (seed 0) trained ``warmup`` env steps, learning from its
+    first ``batch_size`` transitions: a replay buffer to sample from, and optimizer state, for
+    timing its updates. ``precision`` (None: the default) goes into ``policy_kwargs``."""
+    from sb3_comm import CommDDPG, make_comm_vec_env
+
+    policy_kwargs: dict[str, Any] = {"net_arch": net_arch}
+    if precision is not None:
+        policy_kwargs["precision"] = precision
+    env = make_comm_vec_env(env_id, n_envs=n_envs, seed=0)
+    model = CommDDPG(
+        method,
+        env,
+        batch_size=batch_size,
+        learning_starts=batch_size,
+        seed=0,
+        device="cpu",
+        policy_kwargs=policy_kwargs,
+    )
+    model.learn(warmup, log_interval=0)
+    return model
 
 
 def write_results(

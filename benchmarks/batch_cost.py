@@ -22,32 +22,24 @@ from pathlib import Path
 import torch as th
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import write_results
+from _common import warmed_up_model, write_results
 
-from sb3_comm import METHODS, CommDDPG, make_comm_vec_env
+from sb3_comm import METHODS
 from sb3_comm.common.networks import PRECISIONS
 
 
 def time_batches(method: str, args: argparse.Namespace) -> dict[int, list[float]]:
     """Milliseconds per agent update of ``method`` for every batch size, one value per round."""
-    env = make_comm_vec_env(args.env, n_envs=args.n_envs, seed=0)
-    model = CommDDPG(
-        method,
-        env,
-        batch_size=min(args.batches),
-        learning_starts=min(args.batches),
-        seed=0,
-        device="cpu",
-        policy_kwargs={"net_arch": args.net_arch, "precision": args.precision},
+    model = warmed_up_model(
+        method, args.env, args.n_envs, min(args.batches), args.net_arch, args.warmup, args.precision
     )
-    model.learn(args.warmup, log_interval=0)
     times: dict[int, list[float]] = {batch: [] for batch in args.batches}
     for k in range(args.rounds):
         for batch in args.batches if k % 2 == 0 else args.batches[::-1]:
             began = time.perf_counter()
             model.train(args.updates, batch)
             times[batch].append(1000.0 * (time.perf_counter() - began) / args.updates)
-    env.close()
+    model.env.close()
     return times
 
 

@@ -35,9 +35,9 @@ import torch as th
 from stable_baselines3.common.buffers import BaseBuffer
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import alternated_learning_rates, write_results
+from _common import alternated_learning_rates, warmed_up_model, write_results
 
-from sb3_comm import METHODS, CommDDPG, make_comm_vec_env
+from sb3_comm import METHODS, CommDDPG
 from sb3_comm.common import networks
 
 VARIANTS = {
@@ -46,26 +46,14 @@ VARIANTS = {
 }
 
 
-def _warmed_up_model(method: str, args: argparse.Namespace) -> CommDDPG:
-    """A model of ``method`` trained ``args.warmup`` env steps: a replay buffer to sample from, and
-    optimizer state."""
-    env = make_comm_vec_env(args.env, n_envs=args.n_envs, seed=0)
-    model = CommDDPG(
-        method,
-        env,
-        batch_size=args.batch_size,
-        learning_starts=args.batch_size,
-        seed=0,
-        device="cpu",
-        policy_kwargs={"net_arch": args.net_arch},
-    )
-    model.learn(args.warmup, log_interval=0)
-    return model
+def _warmed_up(method: str, args: argparse.Namespace) -> CommDDPG:
+    """A model of ``method`` trained ``args.warmup`` env steps (:func:`_common.warmed_up_model`)."""
+    return warmed_up_model(method, args.env, args.n_envs, args.batch_size, args.net_arch, args.warmup)
 
 
 def time_method(method: str, args: argparse.Namespace) -> dict[str, list[float]]:
     """Milliseconds per agent update of each variant, one value per round."""
-    model = _warmed_up_model(method, args)
+    model = _warmed_up(method, args)
     times: dict[str, list[float]] = {name: [] for name in VARIANTS}
     order = list(VARIANTS)
     try:
@@ -127,7 +115,7 @@ def _steps_of(previous: bool) -> Iterator[None]:
 
 def time_learning(method: str, args: argparse.Namespace) -> dict[str, list[float]]:
     """Environment steps per second of ``learn(args.steps)``, current and previous steps, per round."""
-    model = _warmed_up_model(method, args)
+    model = _warmed_up(method, args)
     variants = {"current": lambda: _steps_of(False), "previous": lambda: _steps_of(True)}
     return alternated_learning_rates(model, variants, args.rounds, args.steps, args.log_interval)
 
