@@ -97,7 +97,8 @@ def test_paper_experiment_is_packaged_and_resolves() -> None:
 
 def test_paper_fast_is_the_paper_runs_with_32_games_in_bfloat16() -> None:
     """``paper_fast`` (``sb3-comm reproduce --fast``): the paper's four methods, 5 seeds, the packaged
-    configurations but for 32 games and bfloat16; its runs are not the packaged experiment's."""
+    configurations but for 32 games, bfloat16 and, on Blind Soccer, batches twice the packaged size
+    (as many sampled transitions per environment step); its runs are not the packaged experiment's."""
     assert "paper_fast" in packaged_experiments()
     fast = load_experiment("paper_fast")
     paper = load_experiment("paper", overrides={"seeds": [0, 1, 2, 3, 4]})
@@ -112,7 +113,17 @@ def test_paper_fast_is_the_paper_runs_with_32_games_in_bfloat16() -> None:
         assert (twin.timesteps, twin.eval_freq, twin.eval_episodes) == (run.timesteps, run.eval_freq, 100)
         assert twin.hyperparams["n_envs"] == 32 and run.hyperparams["n_envs"] == 16
         kwargs = dict(run.hyperparams["policy_kwargs"], precision="bfloat16")  # the pins kept
-        assert twin.hyperparams == {**run.hyperparams, "n_envs": 32, "policy_kwargs": kwargs}
+        batch = (
+            2 * run.hyperparams["batch_size"]
+            if run.task == "BlindSoccer-v0"
+            else run.hyperparams["batch_size"]
+        )
+        assert twin.hyperparams == {
+            **run.hyperparams,
+            "n_envs": 32,
+            "batch_size": batch,
+            "policy_kwargs": kwargs,
+        }
         assert twin.relative_dir != run.relative_dir
     assert {r.timesteps for r in load_experiment("paper_fast", quick=True).runs()} == {30_000, 20_000}
 
