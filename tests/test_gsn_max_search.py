@@ -18,7 +18,7 @@ from toy_envs import coin_env
 from sb3_comm import CommDDPG
 from sb3_comm.comm_ddpg import GSNTrainingCallback
 from sb3_comm.comm_ddpg.methods import GSNMAX
-from sb3_comm.common.networks import gradient_step
+from sb3_comm.common.networks import MLP, gradient_step, mlp
 
 LR = 1e-3
 SMALL = {"net_arch": [32, 32], "gsn_net_arch": [16], "gsn_reward_net_arch": [16], "gsn_effect_model": True}
@@ -355,3 +355,47 @@ def test_a_new_gsn_max_is_the_effect_search_and_old_designs_keep_theirs(tmp_path
     assert single.explorer_envs == 0 and single.gsn_max_search == 16
     tcg = CommDDPG("TCG", make_vec_env(coin_env, n_envs=2))
     assert (tcg.gsn_max_search, tcg.gsn_max_explorers, tcg.gsn_max_explore_messages) == (None, 0.0, True)
+
+
+@pytest.mark.parametrize("precision", [None, th.bfloat16])
+@pytest.mark.parametrize("layer_norm", [False, True])
+def test_an_mlp_on_candidates_that_differ_in_some_columns_equals_it_on_each_assembled_input(
+    precision: th.dtype | None, layer_norm: bool
+) -> None:
+    """``MLP.forward_candidates`` makes the first layer's product on the shared columns once; it
+    gives what ``forward`` gives on every candidate's whole input (float32: to rounding; bfloat16
+    hidden layers: to their precision)."""
+    th.manual_seed(0)
+    net = mlp(11, 3, [32, 32], th.nn.LeakyReLU, layer_norm=layer_norm)
+    net.hidden_dtype = precision
+    fixed, candidates = th.randn(6, 2, 8), th.randn(5, 6, 2, 3)
+    columns = slice(4, 7)  # the varying columns sit inside the row
+    whole = th.cat([fixed[..., :4].expand(5, 6, 2, 4), candidates, fixed[..., 4:].expand(5, 6, 2, 4)], dim=-1)
+    got = net.forward_candidates(fixed, candidates, columns)
+    assert got.shape == (5, 6, 2, 3) and got.dtype == th.float32
+    tolerance = {"atol": 1e-5, "rtol": 1e-5} if precision is None else {"atol": 0.05, "rtol": 0.05}
+    th.testing.assert_close(got, net(whole), **tolerance)
+    with pytest.raises(TypeError, match="Linear first layer"):
+        MLP(th.nn.Tanh(), th.nn.Linear(11, 3)).forward_candidates(fixed, candidates, columns)
+
+
+@pytest.mark.parametrize("share_parameters", [True, False])
+def test_the_effect_models_on_candidate_messages_equal_them_on_each_message(share_parameters: bool) -> None:
+    """``effect_candidates`` (the effect search's evaluation of C heard messages) equals
+    ``effect`` on each heard message, for shared and per-agent effect models."""
+    vec = make_vec_env(coin_env, n_envs=4, seed=0)
+    model = CommDDPG(
+        "GSN-MAX", vec, learning_starts=10_000, seed=0, share_parameters=share_parameters, policy_kwargs=SMALL
+    )
+    model.learn(240)
+    gsn = model.policy.gsn
+    assert gsn.effect_model[0].share_parameters is share_parameters
+    data = sample(model)
+    start = model.comm_layout.obs_message_slice.start
+    situation, actions = data.next_observations[..., :start], data.actions
+    heard = th.rand((7, *gsn.message(data.observations).shape)) * 2.0 - 1.0
+    for which in (0, 1):
+        got = gsn.effect_candidates(situation, heard, actions, which)
+        expected = th.stack([gsn.effect(situation, candidate, actions, which) for candidate in heard])
+        th.testing.assert_close(got, expected, atol=1e-5, rtol=1e-5)
+    assert not th.allclose(got[0], got[1])  # the candidates are told apart

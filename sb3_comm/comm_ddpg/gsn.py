@@ -36,7 +36,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from sb3_comm.comm_ddpg.gsn_worker import GSN_BATCH_FIELDS, GSNWorker, can_fork, optimizer_state_complete
-from sb3_comm.common.networks import AgentMLPs, adam_step, clip_gradients, gradient_step
+from sb3_comm.common.networks import MLP, AgentMLPs, adam_step, clip_gradients, gradient_step
 
 __all__ = ["BESIDE_AGENTS", "GSNTrainingCallback", "GroundedSemanticNetwork", "spare_core"]
 
@@ -220,6 +220,41 @@ class GroundedSemanticNetwork(nn.Module):
             [situation, situation.flip(-2), heard, actions[..., : self.teammate_action_dim]], dim=-1
         )
         return self.effect_model[which](features).squeeze(-1)
+
+    def effect_candidates(
+        self, situation: th.Tensor, heard: th.Tensor, actions: th.Tensor, which: int = 0
+    ) -> th.Tensor:
+        """:meth:`effect` for ``C`` heard messages in the same situations, ``(C, B, n_agents)``:
+        ``heard`` ``(C, B, n_agents, n)``, ``situation`` and ``actions`` as in :meth:`effect`, held
+        for every candidate. The same values to float rounding, but the first layer's product on
+        the situations and actions is made once, not once per candidate
+        (:meth:`~sb3_comm.common.networks.MLP.forward_candidates`).
+        """
+        assert self.effect_model is not None
+        model = self.effect_model[which]
+        if not (isinstance(model, AgentMLPs) and all(isinstance(net, MLP) for net in model.nets)):
+            # another network (a stand-in): every candidate's input assembled
+            count, batch = heard.shape[:2]
+            rows = count * batch
+            values = self.effect(
+                situation.expand(count, *situation.shape).reshape(rows, *situation.shape[1:]),
+                heard.reshape(rows, *heard.shape[2:]),
+                actions.expand(count, *actions.shape).reshape(rows, *actions.shape[1:]),
+                which,
+            )
+            return values.reshape(count, batch, -1)
+        fixed = th.cat([situation, situation.flip(-2), actions[..., : self.teammate_action_dim]], dim=-1)
+        start = 2 * situation.shape[-1]
+        columns = slice(start, start + heard.shape[-1])
+        if model.share_parameters:
+            return model.nets[0].forward_candidates(fixed, heard, columns).squeeze(-1)
+        return th.stack(
+            [
+                net.forward_candidates(fixed[:, i], heard[:, :, i], columns).squeeze(-1)
+                for i, net in enumerate(model.nets)
+            ],
+            dim=2,
+        )
 
     def effect_loss(self, obs: th.Tensor, actions: th.Tensor, rewards: th.Tensor) -> th.Tensor:
         """The effect models' regression on replayed transitions (the mean of their two losses):

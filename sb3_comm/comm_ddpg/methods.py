@@ -494,21 +494,6 @@ class GSNMAX(GSN):
     and the two models' disagreement about it."""
 
     @staticmethod
-    def _effect_of(
-        gsn: GroundedSemanticNetwork, which: int, situation: th.Tensor, heard: th.Tensor, response: th.Tensor
-    ) -> th.Tensor:
-        """Effect model ``which`` for each of ``C`` heard messages in the same situations:
-        ``heard`` ``(C, B, agents, n)``, ``situation`` ``(B, agents, ·)`` and ``response``
-        ``(B, agents, ·)`` held; returns ``(C, B, agents)``."""
-        count, batch, agents, _ = heard.shape
-        rows = count * batch
-        situations = situation.expand(count, *situation.shape).reshape(rows, agents, -1)
-        responses = response.expand(count, *response.shape).reshape(rows, agents, -1)
-        return gsn.effect(situations, heard.reshape(rows, agents, -1), responses, which).reshape(
-            count, batch, agents
-        )
-
-    @staticmethod
     def search_targets(
         policy: TeamPolicy, sent: th.Tensor, next_obs: th.Tensor, dones: th.Tensor, candidates: int
     ) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
@@ -554,12 +539,12 @@ class GSNMAX(GSN):
                 noise = th.randn((local, batch, agents, size), dtype=sent.dtype, device=sent.device)
                 tried[candidates - local :] = (received + GSNMAX.SEARCH_LOCAL_STD * noise).clamp(-1.0, 1.0)
             # the sent message last: E_1 judges the candidates and it, and picks the best candidate
-            picker = GSNMAX._effect_of(gsn, 0, situation, th.cat([tried, received[None]]), response)
+            picker = gsn.effect_candidates(situation, th.cat([tried, received[None]]), response, 0)
             index = picker[:candidates].argmax(dim=0)
             claimed = th.gather(picker[:candidates], 0, index[None])[0] - picker[candidates]
             best_messages = th.gather(tried, 0, index[None, ..., None].expand(1, batch, agents, size))[0]
             # E_2 judges the picked candidate against the sent message (only these two rows)
-            judge = GSNMAX._effect_of(gsn, 1, situation, th.stack([best_messages, received]), response)
+            judge = gsn.effect_candidates(situation, th.stack([best_messages, received]), response, 1)
             gain = judge[0] - judge[1]
             # confirmed: the judge's gain is above the models' own error and their disagreement
             error = (1.0 - gsn.effect_r2).clamp(min=0.0).sqrt()  # RMS residual, in reward std

@@ -3,6 +3,8 @@ step."""
 
 from __future__ import annotations
 
+import contextlib
+
 import torch as th
 from torch import nn
 from torch.optim import optimizer as torch_optimizer
@@ -47,6 +49,39 @@ class MLP(nn.Sequential):
             for layer in layers[:-1]:
                 x = layer(x)  # type: ignore[misc]
         return layers[-1](x.float())  # type: ignore[misc]
+
+    def forward_candidates(self, fixed: th.Tensor, candidates: th.Tensor, columns: slice) -> th.Tensor:
+        """The network on ``C`` inputs per row that differ only in the columns ``columns``, without
+        building them: ``fixed`` ``(*batch, in_dim - k)`` holds every other column of each row (in
+        order), ``candidates`` ``(C, *batch, k)`` the ``k`` columns that vary; returns
+        ``(C, *batch, out_dim)``, what :meth:`forward` gives on each assembled input, to float
+        rounding. The first ``Linear`` splits by columns, ``W x = W_f x_f + W_c x_c``, so its
+        product on the fixed columns is made once per row, not once per candidate (GSN-MAX's
+        effect search: 17 candidate messages of 4 numbers in rows of 148).
+
+        :param fixed: the columns that every candidate shares.
+        :param candidates: the columns that vary, a leading candidate dimension before the rows'.
+        :param columns: where the varying columns sit in the input (a contiguous slice).
+        """
+        layers = list(self._modules.values())
+        first = layers[0]
+        if not isinstance(first, nn.Linear):
+            raise TypeError(f"forward_candidates needs a Linear first layer, got {type(first).__name__}")
+        start, stop, _ = columns.indices(first.in_features)
+        weight = first.weight
+        fixed_weight = th.cat([weight[:, :start], weight[:, stop:]], dim=1)
+        context = (
+            th.autocast(fixed.device.type, dtype=self.hidden_dtype)
+            if self.hidden_dtype is not None
+            else contextlib.nullcontext()
+        )
+        with context:
+            x = nn.functional.linear(fixed, fixed_weight, first.bias) + nn.functional.linear(
+                candidates, weight[:, start:stop]
+            )
+            for layer in layers[1:-1]:
+                x = layer(x)  # type: ignore[misc]
+        return layers[-1](x.float() if self.hidden_dtype is not None else x)  # type: ignore[misc]
 
 
 def check_precision(precision: str) -> None:
