@@ -27,7 +27,7 @@ from sb3_comm.analysis import (
     speaker_consistency,
 )
 from sb3_comm.analysis import report as report_module
-from sb3_comm.analysis.stats import rliable_available
+from sb3_comm.analysis.stats import replicate_iqm, rliable_available
 
 LOG2, LOG3 = math.log(2.0), math.log(3.0)
 TINY = {"net_arch": [16, 16], "gsn_net_arch": [16], "gsn_reward_net_arch": [16]}
@@ -126,6 +126,32 @@ def test_interval_estimates_contain_the_point(backend: str) -> None:
     assert "iqm" not in few  # IQM only with >= 5 seeds
     numpy_few = interval_estimates(scores[:3], reps=500, backend="numpy")
     assert few["mean"]["low"] == pytest.approx(numpy_few["mean"]["low"], abs=0.03)
+
+
+def test_the_bootstrap_iqm_is_rliables_to_the_bit_and_so_are_the_intervals() -> None:
+    """The replicate IQM given to rliable's bootstrap (:func:`replicate_iqm`, faster) is its
+    ``aggregate_iqm`` to the bit on every shape, and the report's intervals are what rliable's own
+    functions give."""
+    from rliable import library, metrics
+
+    rng = np.random.default_rng(0)
+    for shape in [(5, 1), (6, 1), (7, 2), (10, 1), (3, 3), (10, 3), (9, 4)]:
+        for _ in range(20):
+            scores = rng.normal(size=shape)
+            scores[rng.random(shape) < 0.2] = 0.5  # ties
+            assert replicate_iqm(scores) == metrics.aggregate_iqm(scores)
+    scores = rng.uniform(0.8, 1.0, size=(10, 2))
+    out = interval_estimates(scores, reps=300, seed=4, backend="rliable")
+    np.random.seed(4)
+    points, intervals = library.get_interval_estimates(
+        {"s": scores},
+        lambda x: np.array([metrics.aggregate_mean(x), metrics.aggregate_iqm(x)]),
+        reps=300,
+    )
+    assert [out["mean"]["point"], out["iqm"]["point"]] == list(points["s"])
+    assert [[out[k]["low"] for k in ("mean", "iqm")], [out[k]["high"] for k in ("mean", "iqm")]] == [
+        list(row) for row in intervals["s"]
+    ]
 
 
 # ------------------------------------------------------------------------- real models --

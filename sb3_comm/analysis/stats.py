@@ -68,11 +68,23 @@ def _numpy_bootstrap(
     return points, np.percentile(stats, [tail, 100.0 - tail], axis=0)
 
 
+def replicate_iqm(scores: np.ndarray) -> float:
+    """rliable's ``aggregate_iqm`` of one ``(n_runs, n_tasks)`` matrix, the same number to the bit:
+    ``scipy.stats.trim_mean(scores, 0.25, axis=None)``'s own operations (a partition, then the mean
+    of the middle), without its argument-checking wrapper, which costs about 15 times the
+    arithmetic on a bootstrap replicate of a few dozen scores (10,000 replicates per interval)."""
+    flat = np.ravel(scores)
+    low = int(0.25 * flat.shape[0])
+    high = flat.shape[0] - low
+    return np.mean(np.partition(flat, (low, high - 1))[low:high], axis=0)
+
+
 def _rliable_bootstrap(
     scores: np.ndarray, names: list[str], reps: int, confidence: float, seed: int
 ) -> tuple[np.ndarray, np.ndarray]:
     library, metrics = _rliable()  # type: ignore[misc]
-    functions = {"mean": metrics.aggregate_mean, "iqm": metrics.aggregate_iqm}
+    # rliable's stratified bootstrap and its aggregate_mean; its aggregate_iqm's value, made faster
+    functions = {"mean": metrics.aggregate_mean, "iqm": replicate_iqm}
 
     def func(x: np.ndarray) -> np.ndarray:
         return np.array([functions[name](x) for name in names])
