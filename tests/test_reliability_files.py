@@ -213,6 +213,15 @@ def _children(pid: int) -> list[int]:
     return found
 
 
+def _descendants(pid: int) -> list[int]:
+    found, todo = [], [pid]
+    while todo:
+        children = _children(todo.pop())
+        found += children
+        todo += children
+    return found
+
+
 def _running(pid: int) -> bool:
     try:
         state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
@@ -255,7 +264,7 @@ def test_second_runner_is_refused_and_workers_die_with_a_killed_runner(
         assert f"pid {first.pid}" in err and "in use by another runner" in err and "experiment" in err
         assert not list((out / "runs").rglob("previous_attempts"))
         # kill -9 of the runner: its worker stops too.
-        workers = _children(first.pid)
+        workers = _descendants(first.pid)  # the fork server and the runs it forked
         assert workers
         first.send_signal(signal.SIGKILL)
         first.wait(10)

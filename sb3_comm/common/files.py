@@ -236,25 +236,34 @@ def die_with_parent(poll_seconds: float = 1.0) -> None:
 
     On Linux the kernel sends SIGKILL at the parent's death (``prctl(PR_SET_PDEATHSIG)``); as a
     fallback elsewhere (and for a parent that died before the call), a daemon thread polls the
-    parent's pid and ends the process when it changes. Meant as a process-pool ``initializer``.
+    parent's pid and ends the process when it changes. A process forked by multiprocessing's fork
+    server has the server as its parent, which outlives the process that asked for it: the thread
+    polls that process's sentinel instead (``multiprocessing.parent_process().is_alive()``), and
+    ends this one within ``poll_seconds`` of its death. Meant as a process-pool ``initializer``.
     """
     import multiprocessing
 
     started_by = multiprocessing.parent_process()
     parent = started_by.pid if started_by is not None and started_by.pid else os.getppid()
-    if sys.platform.startswith("linux"):
+    through_server = parent != os.getppid() and started_by is not None and started_by.is_alive()
+    if sys.platform.startswith("linux") and not through_server:
         with contextlib.suppress(OSError, AttributeError):
             import ctypes
 
             libc = ctypes.CDLL(None, use_errno=True)
             libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
 
+    def gone() -> bool:
+        if through_server:
+            return not started_by.is_alive()  # type: ignore[union-attr]
+        return os.getppid() != parent
+
     def watch() -> None:
         while True:
-            if os.getppid() != parent:
+            if gone():
                 os._exit(1)
             time.sleep(poll_seconds)
 
-    if os.getppid() != parent:  # it died before prctl took effect
+    if gone():  # it died before prctl took effect
         os._exit(1)
     threading.Thread(target=watch, name="die-with-parent", daemon=True).start()
