@@ -498,6 +498,25 @@ def test_a_failing_run_is_reported_and_the_others_finish(tmp_path: Path, capsys,
     assert (error_file.parent / "previous_attempts" / "1" / "error.txt").is_file()
 
 
+def test_the_longest_runs_start_first_by_budget_and_method() -> None:
+    """Blind Soccer's GSN-MAX runs (twice the time per step), then Blind Soccer's others, then
+    Guess My Number's GSN-MAX, then its others; within a group, the experiment's order."""
+    from sb3_comm.experiments.runner import longest_first
+
+    runs = load_experiment("paper_fast").runs()
+    order = [(run.task, run.method) for run in longest_first(runs)]
+    groups = [order[:5], order[5:25], order[25:30], order[30:]]
+    assert groups[0] == [("BlindSoccer-v0", "GSN-MAX")] * 5
+    assert {task for task, method in groups[1]} == {"BlindSoccer-v0"} and ("BlindSoccer-v0", "NONE") == order[
+        5
+    ]
+    assert groups[2] == [("GuessMyNumber-v0", "GSN-MAX")] * 5
+    assert {task for task, _ in groups[3]} == {"GuessMyNumber-v0"} and "GSN-MAX" not in {
+        m for _, m in groups[3]
+    }
+    assert [run.seed for run in longest_first(runs)][:5] == [0, 1, 2, 3, 4]
+
+
 def test_runs_start_in_new_processes_that_have_the_trainer_imported_already() -> None:
     """The runs' processes fork from a server that imported the trainer and the analysis once
     (Linux, macOS): a new process per run without the imports (about 3.5 s each), and the worker
