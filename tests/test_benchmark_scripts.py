@@ -407,3 +407,21 @@ def test_the_benchmarks_actor_averages_are_the_policys_actor_average(tmp_path):
     for step, saved in policy_averages.saved.items():
         kept = th.load(module.average_path(tmp_path, step), weights_only=True)["averages"][0.01]
         assert all(th.equal(a, b) for a, b in zip(kept, saved, strict=True)), step
+
+
+def test_checkout_speed_refuses_a_folder_that_is_not_a_checkout(tmp_path, monkeypatch, capsys):
+    module = _load(BENCHMARKS / "checkout_speed.py")
+    monkeypatch.setattr(sys, "argv", ["checkout_speed.py", str(tmp_path), str(BENCHMARKS.parent)])
+    with pytest.raises(SystemExit) as stop:
+        module.main()
+    assert stop.value.code == 2
+    assert f"{tmp_path} is not a checkout of sb3-comm" in capsys.readouterr().err
+
+
+def test_experiment_overheads_refuses_a_report_folder_without_runs(tmp_path, monkeypatch, capsys):
+    module = _load(BENCHMARKS / "experiment_overheads.py")
+    monkeypatch.setattr(sys, "argv", ["experiment_overheads.py", "--report-of", str(tmp_path)])
+    with pytest.raises(SystemExit) as stop:
+        module.main()
+    assert stop.value.code == 2
+    assert f"{tmp_path} is not an experiment folder" in capsys.readouterr().err
