@@ -709,8 +709,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--fast",
         action="store_true",
         help="the same methods and tasks, 5 seeds, with 32 games (batches twice the packaged size on "
-        "Blind Soccer) and bfloat16 (sb3_comm/experiments/paper_fast.yml): about 65 minutes of runs on "
-        "two cores instead of 107",
+        "Blind Soccer) and bfloat16 (sb3_comm/experiments/paper_fast.yml): about an hour of runs on "
+        "two cores instead of 107 minutes",
     )
     reproduce.set_defaults(func=_reproduce)
 
