@@ -198,7 +198,8 @@ def pool_context() -> Any:
 STEP_COST = {"GSN-MAX": 2.0}
 """Training time per environment step of a method's runs relative to the others' (1 where not
 listed), for :func:`longest_first`: GSN-MAX's effect search and effect models make its steps about
-twice as long (session 36, ``--fast``: 375 s against 180-240 s on Blind Soccer)."""
+twice as long (``--fast`` on Blind Soccer, session 35: 426-484 s a run against 178-240 s for the
+other methods; session 36, with the faster search, on a slower day: 428-443 s against 211-311 s)."""
 
 
 def longest_first(runs: Iterable[RunSpec]) -> list[RunSpec]:
