@@ -30,6 +30,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import write_results
 
+from sb3_comm.results import git_commit
+
 CHILD = """
 import json, sys, time
 import torch as th
@@ -61,14 +63,12 @@ def _rate(process: subprocess.Popen[str]) -> float:
 
 
 def _commit(checkout: Path) -> str:
-    """The checkout's commit (with ``+dirty`` where its tracked files differ), or ``"n/a"``."""
-    try:
-        head = subprocess.run(
-            ["git", "-C", str(checkout), "rev-parse", "HEAD"], capture_output=True, text=True, check=True
-        ).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(checkout), "diff", "--quiet", "HEAD"]).returncode != 0
-    except (OSError, subprocess.CalledProcessError):
+    """The checkout's commit (:func:`sb3_comm.results.git_commit`), with ``+dirty`` where its tracked
+    files differ from it, or ``"n/a"``."""
+    head = git_commit(checkout)
+    if head is None:
         return "n/a"
+    dirty = subprocess.run(["git", "-C", str(checkout), "diff", "--quiet", "HEAD"]).returncode != 0
     return head + ("+dirty" if dirty else "")
 
 

@@ -26,7 +26,15 @@ import numpy as np
 
 from sb3_comm.common.files import write_text
 
-__all__ = ["RunResult", "machine_info", "read_json", "to_jsonable", "usable_cores", "write_json"]
+__all__ = [
+    "RunResult",
+    "git_commit",
+    "machine_info",
+    "read_json",
+    "to_jsonable",
+    "usable_cores",
+    "write_json",
+]
 
 
 def to_jsonable(value: Any) -> Any:
@@ -77,11 +85,13 @@ def _cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
-def _git_commit() -> str | None:
+def git_commit(where: str | Path | None = None) -> str | None:
+    """The commit checked out in the git work tree at ``where`` (default: this package's), or None
+    outside one."""
     try:
         out = subprocess.run(
             ["git", "rev-parse", "HEAD"],
-            cwd=Path(__file__).resolve().parent,
+            cwd=Path(where) if where is not None else Path(__file__).resolve().parent,
             capture_output=True,
             text=True,
             timeout=5,
@@ -126,7 +136,7 @@ def machine_info() -> dict[str, Any]:
         "sb3_comm": _package_version(),
         "hostname": platform.node(),
         "date": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
-        "git_commit": _git_commit(),
+        "git_commit": git_commit(),
         "load_average_1min": round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None,
     }
 
