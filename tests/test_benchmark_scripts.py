@@ -4,6 +4,7 @@ single-agent benchmark continues a cut run to its end."""
 from __future__ import annotations
 
 import importlib.util
+import json
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -425,3 +426,35 @@ def test_experiment_overheads_refuses_a_report_folder_without_runs(tmp_path, mon
         module.main()
     assert stop.value.code == 2
     assert f"{tmp_path} is not an experiment folder" in capsys.readouterr().err
+
+
+def _experiment_folder(folder, runs):
+    """An experiment folder whose ``result.json`` files hold only what compare_experiments reads."""
+    for (task, method, seed), (seconds, final) in runs.items():
+        run_dir = folder / "runs" / task / method / f"seed{seed}-abc"
+        run_dir.mkdir(parents=True)
+        final_returns = {kind: {"mean_return": final} for kind in ("none", "zero", "shuffle")}
+        result = {"task": task, "method": method, "seed": seed, "status": "done", "wall_seconds": seconds}
+        result.update({"curve": [{"mean_return": 0.0}], "final": final_returns})
+        (run_dir / "result.json").write_text(json.dumps(result))
+    return folder
+
+
+def test_compare_experiments_takes_the_drift_from_runs_that_trained_the_same_model(tmp_path):
+    module = _load(BENCHMARKS / "compare_experiments.py")
+    before = _experiment_folder(
+        tmp_path / "a", {("T", "NONE", 0): (100.0, 1.0), ("T", "GSN-MAX", 0): (200.0, 2.0)}
+    )
+    after = _experiment_folder(
+        tmp_path / "b", {("T", "NONE", 0): (130.0, 1.0), ("T", "GSN-MAX", 0): (210.0, 2.5)}
+    )
+    data = module.compare(before, after, {"T/NONE/0": 10.0}, {"GSN-MAX/T": 2.0})
+    assert data["unchanged_runs"] == 1 and data["changed_runs"] == ["T/GSN-MAX/0"]
+    assert data["drift"] == pytest.approx(1.2)  # (130 - 10 paused) / 100
+    assert data["estimate_by_drift"] == pytest.approx((120.0 + 210.0) / 1.2)
+    assert data["estimate_by_speedup"] == pytest.approx(100.0 + 200.0 / 2.0)
+    with pytest.raises(SystemExit, match="not in"):
+        module.compare(before, after, {"T/RIAL/0": 1.0}, {})
+    (tmp_path / "b" / "runs" / "T" / "NONE" / "seed0-abc" / "result.json").unlink()
+    with pytest.raises(SystemExit, match="different runs"):
+        module.compare(before, after, {}, {})
