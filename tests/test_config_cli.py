@@ -19,9 +19,14 @@ def test_packaged_configs_load(method: str, env_id: str) -> None:
     assert config.method == method
     assert config.n_envs >= 1 and config.n_timesteps > 0
     settings = config.algorithm_kwargs()
-    assert callable(settings["learning_rate"]) and settings["learning_rate"](1.0) == pytest.approx(1e-3)
-    # Blind Soccer: the sweep's beta = 0.5; Guess My Number: gamma 0.9 and beta 0 (explore_gmn_tcg_*).
-    expected = {"BlindSoccer-v0": (0.99, 0.5), "GuessMyNumber-v0": (0.9, 0.0)}[env_id]
+    # Blind Soccer (since session 37): the constructor's learner, a constant critic rate, gamma 0.95
+    # and beta 0; Guess My Number: rates decaying from 1e-3, gamma 0.9 and beta 0 (explore_gmn_tcg_*).
+    rate = settings["learning_rate"]
+    if env_id == "BlindSoccer-v0":
+        assert rate == pytest.approx(1e-3)
+    else:
+        assert callable(rate) and rate(1.0) == pytest.approx(1e-3) and rate(0.5) == pytest.approx(5e-4)
+    expected = {"BlindSoccer-v0": (0.95, 0.0), "GuessMyNumber-v0": (0.9, 0.0)}[env_id]
     assert (settings["gamma"], settings["mc_mixing"]) == expected
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import pytest
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.utils import FloatSchedule
 
 from sb3_comm import CommDDPG, HybridDDPG, make_comm_vec_env
 
@@ -125,12 +126,61 @@ def test_a_file_saved_before_the_average_was_the_default_plays_its_actor(tmp_pat
     assert loaded.policy.averaged_actor is True and loaded.policy.actor_average_tau == "auto"
 
 
+PAPER_METHODS = ("NONE", "RIAL", "TCG", "GSN")
+
+
 def test_every_packaged_configuration_pins_the_actor_it_was_measured_with() -> None:
-    """The packaged results were measured with the actor playing; no packaged run may follow the
-    constructor's new default unnoticed."""
+    """Each packaged result was measured with a player the file names, never the constructor's
+    default unnoticed: on Blind Soccer, since session 37, the paper's methods play the actor's
+    average at the automatic rate; everywhere else the actor plays."""
     from sb3_comm.config import RunConfig
 
-    for method in ("NONE", "RIAL", "TCG", "GSN", "GSN-MAX"):
+    for method in (*PAPER_METHODS, "GSN-MAX"):
         for env_id in ("BlindSoccer-v0", "GuessMyNumber-v0"):
-            config = RunConfig.load(method, env_id)
-            assert config.algorithm_kwargs()["policy_kwargs"]["averaged_actor"] is False, (method, env_id)
+            kwargs = RunConfig.load(method, env_id).algorithm_kwargs()["policy_kwargs"]
+            averaged = method in PAPER_METHODS and env_id == "BlindSoccer-v0"
+            assert kwargs["averaged_actor"] is averaged, (method, env_id)
+            if averaged:
+                assert kwargs["actor_average_tau"] == "auto", (method, env_id)
+
+
+def _learner_settings(model: CommDDPG) -> dict:
+    """What a model learns with: every hyperparameter and schedule (sampled over the run)."""
+    progress = (1.0, 0.5, 0.01)
+    return {
+        "scalars": (model.gamma, model.tau, model.batch_size, model.learning_starts, model.buffer_size,
+                    model.train_freq, model.gradient_steps, model.exploration_fraction,
+                    model.exploration_final_eps, model.exploration_initial_eps, model.max_grad_norm,
+                    model.shared_reward, model.n_envs),
+        "rates": [(model.lr_schedule(p), model.actor_lr_schedule(p), model.mc_mixing_schedule(p))
+                  for p in progress],
+        "gsn_rates": [FloatSchedule(model.gsn_learning_rate)(p) for p in progress],
+        "policy_kwargs": {k: v for k, v in model.policy_kwargs.items() if k != "net_arch"},
+        "net_arch": model.policy_kwargs.get("net_arch") or [256, 256],
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize("method", PAPER_METHODS)
+def test_packaged_blind_soccer_is_the_constructors_learner(method: str) -> None:
+    """Since session 37 the packaged Blind Soccer entries of the paper's methods are
+    ``CommDDPG(method, env)`` with only the paper's own rewards set (on Blind Soccer both agents'
+    rewards are equal): the same settings, and the same model after a few updates, bit for bit."""
+    import torch as th
+
+    from sb3_comm.config import RunConfig
+    from sb3_comm.training import build_model
+
+    packaged = RunConfig.load(method, "BlindSoccer-v0")
+    entry = {"n_envs": packaged.n_envs, "n_timesteps": packaged.n_timesteps, "shared_reward": False}
+    plain = RunConfig.from_entry(entry, method, "BlindSoccer-v0")
+    short = {"n_envs": 2, "learning_starts": 40, "buffer_size": 2000}  # the same on both sides
+    models = []
+    for config in (packaged, plain):
+        settings = _learner_settings(build_model(config, device="cpu"))
+        model = build_model(config.with_overrides(short), device="cpu")
+        model.learn(120)
+        models.append((settings, model))
+    (settings_a, a), (settings_b, b) = models
+    assert settings_a == settings_b
+    for (name, x), (_, y) in zip(a.policy.state_dict().items(), b.policy.state_dict().items(), strict=True):
+        assert th.equal(x, y), name

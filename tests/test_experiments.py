@@ -287,7 +287,7 @@ def test_seeds_and_precision_from_the_command_line_replace_the_files() -> None:
     for run in bf16.runs():  # added to each configuration's policy_kwargs; its pins stay
         kwargs = base[run.key].hyperparams["policy_kwargs"]
         assert run.hyperparams["policy_kwargs"] == {**kwargs, "precision": "bfloat16"}
-        assert run.hyperparams["policy_kwargs"].get("averaged_actor") is False
+        assert run.hyperparams["policy_kwargs"].get("averaged_actor") is kwargs["averaged_actor"]
         assert run.config_hash != base[run.key].config_hash
     # float32, the configurations' own, is the same runs; a file may set it too.
     same = load_experiment("paper", overrides={"precision": "float32"}).runs()
