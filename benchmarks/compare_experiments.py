@@ -84,6 +84,11 @@ def compare(
         group["same"].append(same[key])
     unchanged = [key for key in first if same[key]]
     changed = [key for key in first if not same[key]]
+    if not unchanged:
+        raise SystemExit(
+            "no run trained the same model in both folders (equal curve and final returns), so the "
+            "machine's drift between them cannot be measured"
+        )
     drift = sum(times[k] for k in unchanged) / sum(first[k].wall_seconds for k in unchanged)
 
     def speedup(key: str) -> float:

@@ -455,6 +455,11 @@ def test_compare_experiments_takes_the_drift_from_runs_that_trained_the_same_mod
     assert data["estimate_by_speedup"] == pytest.approx(100.0 + 200.0 / 2.0)
     with pytest.raises(SystemExit, match="not in"):
         module.compare(before, after, {"T/RIAL/0": 1.0}, {})
+    retrained = _experiment_folder(  # every run ends elsewhere: no drift can be measured
+        tmp_path / "c", {("T", "NONE", 0): (130.0, 9.0), ("T", "GSN-MAX", 0): (210.0, 9.0)}
+    )
+    with pytest.raises(SystemExit, match="no run trained the same model"):
+        module.compare(before, retrained, {}, {})
     (tmp_path / "b" / "runs" / "T" / "NONE" / "seed0-abc" / "result.json").unlink()
     with pytest.raises(SystemExit, match="different runs"):
         module.compare(before, after, {}, {})
