@@ -102,6 +102,7 @@ def main() -> None:
     target = bars[args.bar]
     name = args.name or f"time_to_solve_{args.env.split('-')[0].lower()}_{args.method.lower()}"
     runs: list[dict[str, Any]] = []
+    partial = Path(__file__).resolve().parent / "results" / f"{name}.partial.json"
     for seed in args.seeds:
         load_before: float | None = os.getloadavg()[0]
         config = RunConfig.load(args.method, args.env, seed=seed, overrides=overrides)
@@ -149,7 +150,7 @@ def main() -> None:
         runs.append(run)
         print(run, flush=True)
         # written after every run, so that a session that ends keeps the seeds done
-        write_json(Path(__file__).resolve().parent / "results" / f"{name}.partial.json", runs)
+        write_json(partial, runs)
     medians = {bar: _median_seconds([r[f"{bar}_seconds_to_target"] for r in runs]) for bar in bars}
     rows = [
         "| seed | stopped at the bar | "
@@ -203,6 +204,7 @@ def main() -> None:
         "\n".join(rows) + notes,
         title=f"Time to solve: {args.method} on {args.env}",
     )
+    partial.unlink(missing_ok=True)  # the full results are written: the per-run backup is done
 
 
 if __name__ == "__main__":
