@@ -17,7 +17,7 @@ from collections.abc import Callable, Mapping
 from contextlib import AbstractContextManager
 from typing import Any
 
-from sb3_comm.results import RunResult, machine_info, write_json
+from sb3_comm.results import SPEED_REFERENCE, RunResult, machine_info, write_json
 
 __all__ = [
     "RESULTS_DIR",
@@ -146,7 +146,8 @@ def warmed_up_model(
 def write_results(
     name: str, data: dict[str, Any], markdown_table: str, title: str | None = None
 ) -> tuple[pathlib.Path, pathlib.Path]:
-    """Write ``results/<name>.json`` and ``results/<name>.md`` with the machine and the command.
+    """Write ``results/<name>.json`` and ``results/<name>.md`` with the machine, its speed now
+    (:func:`~sb3_comm.results.speed_reference`) and the command.
 
     :param name: file stem.
     :param data: the numbers (numpy values are converted).
@@ -155,7 +156,7 @@ def write_results(
     :return: the two paths.
     """
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
-    machine = machine_info()
+    machine = machine_info(speed=True)
     command = command_line()
     json_path = write_json(
         RESULTS_DIR / f"{name}.json", {"name": name, "command": command, "machine": machine, **data}
@@ -167,7 +168,9 @@ def write_results(
         "",
         f"Machine: {machine['cpu_model']}, {machine['usable_cores']} cores; Python {machine['python']}, "
         f"numpy {machine['numpy']}; {machine['platform']}; commit {machine['git_commit'] or 'n/a'}; "
-        f"load average {machine['load_average_1min']} (1 min, at the end of the run).",
+        f"load average {machine['load_average_1min']} (1 min, at the end of the run); speed reference "
+        f"{machine['speed_reference_us']:,.0f} µs per update at the end of the run ({SPEED_REFERENCE}; "
+        "lower is faster: this VM's speed drifts between days).",
         "",
         markdown_table.rstrip(),
         "",

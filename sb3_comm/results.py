@@ -6,7 +6,8 @@
 policy: NumPy values become Python values, NaN and infinities become ``null``, as standard JSON
 has no NaN) and :func:`write_json` (a temporary file in the same folder, then ``os.replace``, so
 that a reader never sees half a file: :func:`sb3_comm.common.files.atomic_path`).
-:func:`machine_info` describes the machine that made them.
+:func:`machine_info` describes the machine that made them (with ``speed=True``, also how fast it
+computes right now: :func:`speed_reference`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import math
 import os
 import platform
 import subprocess
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,10 +29,12 @@ import numpy as np
 from sb3_comm.common.files import write_text
 
 __all__ = [
+    "SPEED_REFERENCE",
     "RunResult",
     "git_commit",
     "machine_info",
     "read_json",
+    "speed_reference",
     "to_jsonable",
     "usable_cores",
     "write_json",
@@ -111,13 +115,59 @@ def _package_version() -> str | None:
         return None
 
 
-def machine_info() -> dict[str, Any]:
+SPEED_REFERENCE = "one Adam update of a 64-256-256-1 MLP on 256 rows, float32, one torch thread"
+"""What :func:`speed_reference` times."""
+
+
+def speed_reference(updates: int = 20, repeats: int = 5) -> float:
+    """Microseconds per update of a fixed small network (:data:`SPEED_REFERENCE`), the median of
+    ``repeats`` timings of ``updates`` updates each: how fast this machine does the arithmetic of a
+    training step right now. This VM's speed drifts between days by more than most changes measured
+    on it, so every result file records it beside the load average, to compare timings made on
+    different days; lower is faster.
+    """
+    import torch as th
+
+    threads = th.get_num_threads()
+    th.set_num_threads(1)
+    try:
+        generator = th.Generator().manual_seed(0)
+        inputs = th.randn(256, 64, generator=generator)
+        targets = th.randn(256, 1, generator=generator)
+        net = th.nn.Sequential(
+            th.nn.Linear(64, 256), th.nn.ReLU(), th.nn.Linear(256, 256), th.nn.ReLU(), th.nn.Linear(256, 1)
+        )
+        optimizer = th.optim.Adam(net.parameters(), lr=1e-4)
+
+        def update() -> None:
+            loss = th.nn.functional.mse_loss(net(inputs), targets)
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+
+        for _ in range(5):  # warm-up: allocations, Adam's state
+            update()
+        timings = []
+        for _ in range(repeats):
+            began = time.perf_counter()
+            for _ in range(updates):
+                update()
+            timings.append((time.perf_counter() - began) / updates * 1e6)
+        return sorted(timings)[len(timings) // 2]
+    finally:
+        th.set_num_threads(threads)
+
+
+def machine_info(speed: bool = False) -> dict[str, Any]:
     """The machine and software that produced a result.
 
     Keys: ``cpu_model``, ``cores``, ``usable_cores``, ``platform``, ``python``, ``numpy``,
     ``torch``, ``sb3_comm`` (this package's version), ``hostname``, ``date`` (UTC), ``git_commit``
     (None outside a git checkout) and ``load_average_1min`` (other processes share the cores: a
     high load means slower timings).
+
+    :param speed: also ``speed_reference_us`` (:func:`speed_reference`, measured now, a fraction
+        of a second) and ``speed_reference`` (what it times), for a record of timings.
     """
     try:
         import torch
@@ -125,7 +175,7 @@ def machine_info() -> dict[str, Any]:
         torch_version: str | None = torch.__version__
     except ImportError:  # pragma: no cover - torch is a dependency
         torch_version = None
-    return {
+    info = {
         "cpu_model": _cpu_model(),
         "cores": os.cpu_count(),
         "usable_cores": usable_cores(),
@@ -139,6 +189,9 @@ def machine_info() -> dict[str, Any]:
         "git_commit": git_commit(),
         "load_average_1min": round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None,
     }
+    if speed:
+        info.update(speed_reference_us=round(speed_reference(), 1), speed_reference=SPEED_REFERENCE)
+    return info
 
 
 @dataclass

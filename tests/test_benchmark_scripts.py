@@ -463,3 +463,15 @@ def test_compare_experiments_takes_the_drift_from_runs_that_trained_the_same_mod
     (tmp_path / "b" / "runs" / "T" / "NONE" / "seed0-abc" / "result.json").unlink()
     with pytest.raises(SystemExit, match="different runs"):
         module.compare(before, after, {}, {})
+
+
+def test_result_files_record_the_machine_speed(tmp_path, monkeypatch):
+    """benchmarks/_common.write_results: both files carry the speed reference, a positive time per
+    update, in the JSON's machine record and on the Markdown's machine line."""
+    module = _load(BENCHMARKS / "_common.py")
+    monkeypatch.setattr(module, "RESULTS_DIR", tmp_path)
+    json_path, md_path = module.write_results("speed_check", {"x": 1}, "| a |\n|---|")
+    machine = json.loads(json_path.read_text())["machine"]
+    assert machine["speed_reference_us"] > 0
+    assert machine["speed_reference"] == module.SPEED_REFERENCE
+    assert f"speed reference {machine['speed_reference_us']:,.0f} µs per update" in md_path.read_text()

@@ -400,6 +400,7 @@ def test_a_run_writes_model_curve_ablations_and_communication(tmp_path: Path, fa
     summary_file = json.loads((tmp_path / "summary.json").read_text())
     assert summary_file["command"] == "test" and summary_file["workers"] == 0
     assert summary_file["machine"]["cores"] >= 1 and summary_file["machine"]["cpu_model"]
+    assert summary_file["machine"]["speed_reference_us"] > 0  # how fast the machine computed then
     assert summary_file["wall_seconds"] > result["train_seconds"] and summary_file["env_steps"] == 400
     assert (
         yaml.safe_load((tmp_path / "experiment.yml").read_text())["resolved"]["GSN/GuessMyNumber-v0"][

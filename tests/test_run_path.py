@@ -11,7 +11,14 @@ import pytest
 import yaml
 
 from sb3_comm.config import RunConfig
-from sb3_comm.results import RunResult, to_jsonable, write_json
+from sb3_comm.results import (
+    SPEED_REFERENCE,
+    RunResult,
+    machine_info,
+    speed_reference,
+    to_jsonable,
+    write_json,
+)
 from sb3_comm.training import EvalSettings, build_model, train_run
 
 PAPER_RUNS = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "paper" / "runs"
@@ -62,6 +69,33 @@ def test_json_policy_nan_is_null_and_numpy_is_python(tmp_path: Path) -> None:
     path = write_json(tmp_path / "x.json", data)
     assert json.loads(path.read_text())["b"] == [None, None]
     assert [p.name for p in tmp_path.iterdir()] == ["x.json"]  # no temporary file left
+
+
+def test_speed_reference_times_one_thread_and_restores_the_callers_threads(monkeypatch) -> None:
+    """The machine's speed now (:func:`speed_reference`, recorded with timings): timed with one torch
+    thread whatever the caller set, which it gets back; ``machine_info(speed=True)`` adds it."""
+    import torch as th
+
+    seen: list[int] = []
+    real_adam = th.optim.Adam
+
+    class Watching(real_adam):  # type: ignore[misc, valid-type]
+        def step(self, *args, **kwargs):
+            seen.append(th.get_num_threads())
+            return super().step(*args, **kwargs)
+
+    monkeypatch.setattr(th.optim, "Adam", Watching)
+    threads = th.get_num_threads()
+    th.set_num_threads(2)
+    try:
+        assert speed_reference(updates=2, repeats=3) > 0
+        assert th.get_num_threads() == 2
+    finally:
+        th.set_num_threads(threads)
+    assert len(seen) == 5 + 2 * 3 and set(seen) == {1}  # warm-up, then the timed updates
+    assert "speed_reference_us" not in machine_info()
+    info = machine_info(speed=True)
+    assert info["speed_reference_us"] > 0 and info["speed_reference"] == SPEED_REFERENCE
 
 
 def test_run_result_reads_the_stored_paper_results() -> None:

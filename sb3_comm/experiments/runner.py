@@ -462,7 +462,7 @@ def _summary(
         "wall_seconds": time.perf_counter() - began,
         "backend": backend,
         "workers": workers,
-        "machine": machine_info(),
+        "machine": machine_info(speed=True),  # how fast it computed, to compare wall_seconds across days
         "counts": counts,
         "env_steps": sum(row.get("timesteps", 0) for row in table if row["status"] == "done"),
         "runs": table,
