@@ -134,9 +134,15 @@ def speed_reference(updates: int = 20, repeats: int = 5) -> float:
         generator = th.Generator().manual_seed(0)
         inputs = th.randn(256, 64, generator=generator)
         targets = th.randn(256, 1, generator=generator)
-        net = th.nn.Sequential(
-            th.nn.Linear(64, 256), th.nn.ReLU(), th.nn.Linear(256, 256), th.nn.ReLU(), th.nn.Linear(256, 1)
-        )
+        with th.random.fork_rng(devices=[]):  # the caller's random stream is left as it was
+            th.manual_seed(0)
+            net = th.nn.Sequential(
+                th.nn.Linear(64, 256),
+                th.nn.ReLU(),
+                th.nn.Linear(256, 256),
+                th.nn.ReLU(),
+                th.nn.Linear(256, 1),
+            )
         optimizer = th.optim.Adam(net.parameters(), lr=1e-4)
 
         def update() -> None:

@@ -73,7 +73,8 @@ def test_json_policy_nan_is_null_and_numpy_is_python(tmp_path: Path) -> None:
 
 def test_speed_reference_times_one_thread_and_restores_the_callers_threads(monkeypatch) -> None:
     """The machine's speed now (:func:`speed_reference`, recorded with timings): timed with one torch
-    thread whatever the caller set, which it gets back; ``machine_info(speed=True)`` adds it."""
+    thread whatever the caller set, which it gets back with its random stream untouched;
+    ``machine_info(speed=True)`` adds it."""
     import torch as th
 
     seen: list[int] = []
@@ -87,9 +88,13 @@ def test_speed_reference_times_one_thread_and_restores_the_callers_threads(monke
     monkeypatch.setattr(th.optim, "Adam", Watching)
     threads = th.get_num_threads()
     th.set_num_threads(2)
+    th.manual_seed(123)
+    expected = th.rand(3)
+    th.manual_seed(123)
     try:
         assert speed_reference(updates=2, repeats=3) > 0
         assert th.get_num_threads() == 2
+        assert th.equal(th.rand(3), expected)  # the caller's random stream is untouched
     finally:
         th.set_num_threads(threads)
     assert len(seen) == 5 + 2 * 3 and set(seen) == {1}  # warm-up, then the timed updates
