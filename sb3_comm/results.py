@@ -131,11 +131,9 @@ def speed_reference(updates: int = 20, repeats: int = 5) -> float:
     threads = th.get_num_threads()
     th.set_num_threads(1)
     try:
-        generator = th.Generator().manual_seed(0)
-        inputs = th.randn(256, 64, generator=generator)
-        targets = th.randn(256, 1, generator=generator)
         with th.random.fork_rng(devices=[]):  # the caller's random stream is left as it was
             th.manual_seed(0)
+            inputs, targets = th.randn(256, 64), th.randn(256, 1)
             net = th.nn.Sequential(
                 th.nn.Linear(64, 256),
                 th.nn.ReLU(),
